@@ -1,0 +1,64 @@
+#include "core/render/mesh.h"
+
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+namespace relit::render {
+namespace {
+
+std::string TempPath(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / "relit_mesh_test";
+  std::filesystem::create_directories(dir);
+  return (dir / name).string();
+}
+
+TEST(Mesh, ObjWithSeamSplitsVertices) {
+  const std::string path = TempPath("seam.obj");
+  std::ofstream(path) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
+                         "vt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\nvt 0.5 0.5\n"
+                         "f 1/1 2/2 3/3\nf 2/5 4/4 3/3\n";
+  const TriangleMesh mesh = LoadMesh(path);
+  EXPECT_EQ(mesh.triangles.size(), 2u);
+  EXPECT_EQ(mesh.positions.size(), 5u);  // vertex 2 carries two UVs
+  ASSERT_TRUE(mesh.has_uvs());
+  ASSERT_TRUE(mesh.has_normals());  // computed on load
+  EXPECT_NEAR(mesh.normals[0].z(), 1.0f, 1e-6f);
+}
+
+TEST(Mesh, ObjAndPlyRoundTrip) {
+  const TriangleMesh sphere = MakeSphere({0.1f, 0.2f, 0.3f}, 0.5f, 16, 8);
+  for (const char* name : {"sphere.obj", "sphere.ply"}) {
+    const std::string path = TempPath(name);
+    SaveMesh(path, sphere);
+    const TriangleMesh back = LoadMesh(path);
+    ASSERT_EQ(back.triangles.size(), sphere.triangles.size()) << name;
+    const auto a = sphere.Bounds(), b = back.Bounds();
+    EXPECT_LT((a.min() - b.min()).norm(), 1e-5f) << name;
+    EXPECT_LT((a.max() - b.max()).norm(), 1e-5f) << name;
+    EXPECT_TRUE(back.has_uvs()) << name;
+  }
+}
+
+TEST(Mesh, SphereNormalsPointOutward) {
+  const TriangleMesh sphere = MakeSphere(Eigen::Vector3f::Zero(), 1.0f, 24, 12);
+  for (const auto& t : sphere.triangles) {
+    const Eigen::Vector3f& a = sphere.positions[t[0]];
+    const Eigen::Vector3f n = (sphere.positions[t[1]] - a).cross(sphere.positions[t[2]] - a);
+    EXPECT_GT(n.dot(a + sphere.positions[t[1]] + sphere.positions[t[2]]), 0);
+  }
+}
+
+TEST(Mesh, BadInputIsClearError) {
+  EXPECT_THROW(LoadMesh(TempPath("missing.obj")), std::runtime_error);
+  const std::string path = TempPath("bad.stl");
+  std::ofstream(path) << "solid x\n";
+  EXPECT_THROW(LoadMesh(path), std::runtime_error);
+  const std::string empty = TempPath("empty.obj");
+  std::ofstream(empty) << "# nothing\n";
+  EXPECT_THROW(LoadMesh(empty), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace relit::render

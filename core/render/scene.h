@@ -1,0 +1,103 @@
+// Embree 3 scene: mesh prototypes instanced with transforms, materials and
+// lights. Build once, Commit(), then query from many threads.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "core/render/bsdf.h"
+#include "core/render/light.h"
+#include "core/render/mesh.h"
+#include "core/render/texture.h"
+
+namespace relit::render {
+
+// Material = textured Lambert + textured microfacet layer (either may be zero).
+struct Material {
+  std::string name;
+  Texture diffuse_albedo = Rgb(0.5f, 0.5f, 0.5f);  // colour textures are sRGB-decoded on load
+  Texture specular_albedo = Rgb::Zero();
+  Texture roughness = Rgb::Constant(0.3f);   // GGX alpha, read from the first channel
+  Rgb f0 = Rgb::Constant(0.04f);
+
+  static Material Lambert(const Rgb& albedo);
+  static Material Glossy(const Rgb& diffuse, const Rgb& specular, float alpha);
+  BsdfParams At(const Vec2f& uv) const;
+};
+
+struct Hit {
+  float t = 0;                 // ray parameter (metres for unit directions)
+  Vec3f position;              // world
+  Vec3f geometric_normal;      // world, unit, facing the ray origin side not guaranteed
+  Vec3f shading_normal;        // world, unit, interpolated vertex normal if present
+  Vec2f uv = Vec2f::Zero();    // interpolated texture coordinates (0 if none)
+  Vec2f barycentric;           // Embree (u, v) of the triangle
+  int instance = -1;
+  int triangle = -1;
+  int material = -1;
+  int object_id = -1;
+  int quad_light = -1;         // index into quad_lights() when an emitter was hit
+};
+
+class Scene {
+ public:
+  Scene();
+  ~Scene();
+  Scene(const Scene&) = delete;
+  Scene& operator=(const Scene&) = delete;
+
+  int AddMesh(TriangleMesh mesh);  // returns the prototype index
+  int AddMaterial(Material material);
+  // Places a prototype in the world; object_id is reported in AOVs and alpha.
+  int AddInstance(int mesh, int material, const Eigen::Affine3f& world_from_object, int object_id);
+  // Convenience: mesh + material + identity instance.
+  int AddObject(TriangleMesh mesh, Material material, int object_id);
+
+  void AddLight(const PointLight& light) { point_lights_.push_back(light); }
+  void AddLight(const DirectionalLight& light) { directional_lights_.push_back(light); }
+  void AddLight(const QuadLight& light);
+  void SetEnvironment(EnvironmentLight environment) { environment_ = std::move(environment); }
+  void ClearLights();
+
+  // Builds the acceleration structures; call after all Add* and before queries.
+  void Commit();
+
+  bool Intersect(const Vec3f& origin, const Vec3f& direction, float t_min, float t_max,
+                 Hit* hit) const;
+  bool Occluded(const Vec3f& origin, const Vec3f& direction, float t_min, float t_max) const;
+
+  const std::vector<PointLight>& point_lights() const { return point_lights_; }
+  const std::vector<DirectionalLight>& directional_lights() const { return directional_lights_; }
+  const std::vector<QuadLight>& quad_lights() const { return quad_lights_; }
+  const EnvironmentLight& environment() const { return environment_; }
+  const Material& material(int index) const { return materials_[index]; }
+  const TriangleMesh& mesh(int index) const { return meshes_[index]; }
+  int light_count() const;
+  // Bounding sphere of all geometry (for directional-light footprints).
+  void BoundingSphere(Vec3f* centre, float* radius) const;
+
+  struct Instance {
+    int mesh, material, object_id, quad_light;
+    Eigen::Affine3f world_from_object;
+    Eigen::Matrix3f normal_matrix;  // inverse transpose of the linear part
+  };
+  const std::vector<Instance>& instances() const { return instances_; }
+
+ private:
+  struct EmbreeState;
+  std::unique_ptr<EmbreeState> embree_;
+  std::vector<TriangleMesh> meshes_;
+  std::vector<Material> materials_;
+  std::vector<Instance> instances_;
+  std::vector<PointLight> point_lights_;
+  std::vector<DirectionalLight> directional_lights_;
+  std::vector<QuadLight> quad_lights_;
+  EnvironmentLight environment_;
+  bool committed_ = false;
+};
+
+}  // namespace relit::render
