@@ -1,0 +1,324 @@
+#include "core/options.h"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <utility>
+
+#include "core/error.h"
+
+namespace relit {
+
+namespace internal {
+
+int EditDistance(const std::string& a, const std::string& b) {
+  const size_t n = a.size(), m = b.size();
+  std::vector<std::vector<int>> d(n + 1, std::vector<int>(m + 1));
+  for (size_t i = 0; i <= n; ++i) d[i][0] = static_cast<int>(i);
+  for (size_t j = 0; j <= m; ++j) d[0][j] = static_cast<int>(j);
+  for (size_t i = 1; i <= n; ++i) {
+    for (size_t j = 1; j <= m; ++j) {
+      const int cost = a[i - 1] == b[j - 1] ? 0 : 1;
+      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + cost});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) {
+        d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+      }
+    }
+  }
+  return d[n][m];
+}
+
+}  // namespace internal
+
+namespace {
+
+std::string Lower(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return text;
+}
+
+// "'text'" for scalars, a word for everything else.
+std::string Describe(const YAML::Node& node) {
+  switch (node.Type()) {
+    case YAML::NodeType::Scalar: return "'" + node.Scalar() + "'";
+    case YAML::NodeType::Sequence: return "a list";
+    case YAML::NodeType::Map: return "a mapping";
+    default: return "an empty value";
+  }
+}
+
+std::string Join(const std::vector<std::string>& items) {
+  std::string out;
+  for (const std::string& item : items) out += (out.empty() ? "" : ", ") + item;
+  return out;
+}
+
+// The closest known key, or "" when none is close enough to be a typo.
+std::string Suggest(const std::string& key, const std::vector<std::string>& known) {
+  std::string best;
+  int best_distance = std::numeric_limits<int>::max();
+  for (const std::string& candidate : known) {
+    const int distance = Lower(key) == Lower(candidate)
+                             ? 0
+                             : internal::EditDistance(key, candidate);
+    if (distance < best_distance) {
+      best_distance = distance;
+      best = candidate;
+    }
+  }
+  const int allowed = std::max<int>(1, static_cast<int>(key.size()) / 3);
+  return best_distance <= allowed ? best : "";
+}
+
+// Decimal integers only: yaml-cpp would read "010" as octal and "0x10" as hex.
+template <typename T>
+bool ParseInteger(const std::string& text, T* value) {
+  const char* begin = text.data();
+  const char* end = begin + text.size();
+  if (begin != end && *begin == '+') ++begin;
+  if (begin == end || (begin != text.data() && *begin == '-')) return false;
+  const auto result = std::from_chars(begin, end, *value, 10);
+  return result.ec == std::errc() && result.ptr == end;
+}
+
+}  // namespace
+
+OptionsReader::OptionsReader(const YAML::Node& node, std::string file, std::string context)
+    : OptionsReader(node, std::move(file), std::move(context), std::make_shared<Tracker>()) {}
+
+OptionsReader::OptionsReader(const YAML::Node& node, std::string file, std::string context,
+                             std::shared_ptr<Tracker> tracker)
+    : node_(node), file_(std::move(file)), context_(std::move(context)),
+      tracker_(std::move(tracker)) {
+  if (!IsNull() && !node_.IsMap()) {
+    Fail(Position(node_), ": ", context_.empty() ? "the top level" : "'" + context_ + "'",
+         " must be a mapping of options (key: value), got ", Describe(node_));
+  }
+}
+
+OptionsReader OptionsReader::FromString(const std::string& text, const std::string& file) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::ParserException& e) {
+    Fail(file, ":", e.mark.line + 1, ":", e.mark.column + 1, ": YAML syntax error: ", e.msg);
+  }
+  return OptionsReader(root, file);
+}
+
+OptionsReader OptionsReader::FromFile(const std::string& path) {
+  std::error_code ec;
+  RELIT_REQUIRE(std::filesystem::is_regular_file(path, ec), "options file ", path,
+                " does not exist");
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    Fail("cannot read options file ", path);
+  } catch (const YAML::ParserException& e) {
+    Fail(path, ":", e.mark.line + 1, ":", e.mark.column + 1, ": YAML syntax error: ", e.msg);
+  }
+  return OptionsReader(root, path);
+}
+
+std::string OptionsReader::Qualified(const std::string& key) const {
+  return context_.empty() ? key : context_ + "." + key;
+}
+
+std::string OptionsReader::Position(const YAML::Node& node) const {
+  const YAML::Mark mark = node.Mark();
+  if (mark.is_null()) return file_;
+  return file_ + ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1);
+}
+
+bool OptionsReader::Find(const std::string& key, YAML::Node* value,
+                         std::string* position) const {
+  if (IsNull()) return false;
+  for (const auto& entry : node_) {
+    if (!entry.first.IsScalar() || entry.first.Scalar() != key) continue;
+    *value = entry.second;
+    // yaml-cpp places an empty value ("key:") at the start of the next line,
+    // so point at the key instead.
+    *position = Position(entry.second.IsNull() ? entry.first : entry.second);
+    return true;
+  }
+  return false;
+}
+
+void OptionsReader::Ignore(const std::string& key) { tracker_->known.emplace(context_, key); }
+
+bool OptionsReader::Has(const std::string& key) const {
+  YAML::Node value;
+  std::string position;
+  return Find(key, &value, &position);
+}
+
+OptionsReader OptionsReader::Child(const std::string& key) {
+  Ignore(key);
+  const std::string qualified = Qualified(key);
+  tracker_->children.insert(qualified);
+  YAML::Node value;
+  std::string position;
+  if (!Find(key, &value, &position)) value = YAML::Node();
+  if (!value.IsNull() && !value.IsMap()) {
+    Fail(position, ": key '", qualified, "': expected a mapping of options, got ",
+         Describe(value));
+  }
+  return OptionsReader(value, file_, qualified, tracker_);
+}
+
+std::string OptionsReader::Where(const std::string& key) const {
+  YAML::Node value;
+  std::string position;
+  if (!Find(key, &value, &position)) position = file_;
+  return position + " key '" + Qualified(key) + "'";
+}
+
+void OptionsReader::Finish() {
+  struct Unknown {
+    int pos;
+    std::string position;
+    std::string context;
+    std::string key;
+  };
+  std::vector<Unknown> unknown;
+  std::vector<std::string> duplicate_errors;
+
+  // Walks this mapping and the Child() mappings below it.
+  auto walk = [&](const auto& self, const YAML::Node& node, const std::string& context) -> void {
+    if (!node.IsMap()) return;
+    std::map<std::string, int> first_line;
+    for (const auto& entry : node) {
+      const std::string key = entry.first.IsScalar() ? entry.first.Scalar() : "<complex key>";
+      const YAML::Mark mark = entry.first.Mark();
+      const std::string qualified = context.empty() ? key : context + "." + key;
+      const std::string position = file_ + ":" + std::to_string(mark.line + 1);
+      const auto [it, inserted] = first_line.emplace(key, mark.line + 1);
+      if (!inserted) {
+        duplicate_errors.push_back(position + ": duplicate key '" + qualified +
+                                   "' (first given on line " + std::to_string(it->second) + ")");
+      }
+      if (tracker_->known.count({context, key}) == 0) {
+        unknown.push_back({mark.pos, position, context, key});
+      } else if (tracker_->children.count(qualified) != 0) {
+        self(self, entry.second, qualified);
+      }
+    }
+  };
+  if (!IsNull()) walk(walk, node_, context_);
+
+  if (!duplicate_errors.empty()) throw Error(duplicate_errors.front());
+  if (unknown.empty()) return;
+  std::sort(unknown.begin(), unknown.end(),
+            [](const Unknown& a, const Unknown& b) { return a.pos < b.pos; });
+  const Unknown& first = unknown.front();
+  std::vector<std::string> known;
+  for (const auto& [context, key] : tracker_->known) {
+    if (context == first.context) known.push_back(key);
+  }
+  std::string message = first.position + ": unknown key '" +
+                        (first.context.empty() ? first.key : first.context + "." + first.key) +
+                        "'";
+  const std::string suggestion = Suggest(first.key, known);
+  if (!suggestion.empty()) message += ", did you mean '" + suggestion + "'?";
+  message += known.empty() ? " (this section takes no options)"
+                           : " (known keys: " + Join(known) + ")";
+  if (unknown.size() > 1) {
+    std::vector<std::string> others;
+    for (size_t i = 1; i < unknown.size(); ++i) {
+      others.push_back(unknown[i].context.empty() ? unknown[i].key
+                                                  : unknown[i].context + "." + unknown[i].key);
+    }
+    message += "; also unknown: " + Join(others);
+  }
+  throw Error(message);
+}
+
+void OptionsReader::FailType(const std::string& position, const std::string& qualified,
+                             const YAML::Node& node, const char* expected) const {
+  Fail(position, ": key '", qualified, "': expected ", expected, ", got ", Describe(node));
+}
+
+void OptionsReader::FailRange(const std::string& key, const std::string& value,
+                              const std::string& min, const std::string& max) const {
+  Fail(Where(key), ": value ", value, " is out of range [", min, ", ", max, "]");
+}
+
+void OptionsReader::Convert(const std::string& qualified, const YAML::Node& node,
+                            const Pos& position, bool* value) const {
+  if (!node.IsScalar() || !YAML::convert<bool>::decode(node, *value)) {
+    FailType(position, qualified, node, "a boolean (true/false)");
+  }
+}
+
+void OptionsReader::Convert(const std::string& qualified, const YAML::Node& node,
+                            const Pos& position, int* value) const {
+  if (!node.IsScalar() || !ParseInteger(node.Scalar(), value)) {
+    FailType(position, qualified, node, "an integer (32-bit)");
+  }
+}
+
+void OptionsReader::Convert(const std::string& qualified, const YAML::Node& node,
+                            const Pos& position, int64_t* value) const {
+  if (!node.IsScalar() || !ParseInteger(node.Scalar(), value)) {
+    FailType(position, qualified, node, "an integer");
+  }
+}
+
+void OptionsReader::Convert(const std::string& qualified, const YAML::Node& node,
+                            const Pos& position, uint64_t* value) const {
+  if (!node.IsScalar() || !ParseInteger(node.Scalar(), value)) {
+    FailType(position, qualified, node, "a non-negative integer");
+  }
+}
+
+void OptionsReader::Convert(const std::string& qualified, const YAML::Node& node,
+                            const Pos& position, double* value) const {
+  if (!node.IsScalar() || !YAML::convert<double>::decode(node, *value)) {
+    FailType(position, qualified, node, "a number");
+  }
+}
+
+void OptionsReader::Convert(const std::string& qualified, const YAML::Node& node,
+                            const Pos& position, float* value) const {
+  if (!node.IsScalar() || !YAML::convert<float>::decode(node, *value)) {
+    FailType(position, qualified, node, "a number");
+  }
+}
+
+void OptionsReader::Convert(const std::string& qualified, const YAML::Node& node,
+                            const Pos& position, std::string* value) const {
+  if (!node.IsScalar()) FailType(position, qualified, node, "a string");
+  *value = node.Scalar();
+}
+
+template <typename E>
+void OptionsReader::Convert(const std::string& qualified, const YAML::Node& node,
+                            const Pos& position, std::vector<E>* value) const {
+  if (!node.IsSequence()) {
+    const char* expected = std::is_same_v<E, std::string> ? "a list of strings"
+                           : std::is_same_v<E, int>       ? "a list of integers"
+                                                          : "a list of numbers";
+    FailType(position, qualified, node, expected);
+  }
+  value->clear();
+  for (size_t i = 0; i < node.size(); ++i) {
+    const YAML::Node element = node[i];
+    E converted{};
+    Convert(qualified + "[" + std::to_string(i) + "]", element, Position(element), &converted);
+    value->push_back(std::move(converted));
+  }
+}
+
+template void OptionsReader::Convert(const std::string&, const YAML::Node&, const Pos&,
+                                     std::vector<double>*) const;
+template void OptionsReader::Convert(const std::string&, const YAML::Node&, const Pos&,
+                                     std::vector<int>*) const;
+template void OptionsReader::Convert(const std::string&, const YAML::Node&, const Pos&,
+                                     std::vector<std::string>*) const;
+
+}  // namespace relit
