@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/error.h"
+#include "core/render/light_sampling.h"
 
 namespace relit::render {
 
@@ -21,111 +22,24 @@ void RenderOptions::Check() const {
                 "gaussian_stddev_px must be in (0, 4] pixels, got ", gaussian_stddev_px);
 }
 
-namespace {
-
-constexpr float kInfinity = std::numeric_limits<float>::infinity();
-
-// Ray origin pushed off the surface along the geometric normal, on the side
-// the new ray leaves towards; the push scales with the coordinates' size.
-Vec3f OffsetOrigin(const Vec3f& p, const Vec3f& ng, const Vec3f& direction) {
-  const float scale = 1e-4f * (1.0f + p.cwiseAbs().maxCoeff());
-  return p + (ng.dot(direction) > 0 ? scale : -scale) * ng;
-}
-
-struct LightSample {
-  Vec3f wi;
-  float distance = kInfinity;
-  Rgb radiance = Rgb::Zero();
-  float pdf = 0;  // solid angle; ignored for delta lights
-  bool delta = false;
-};
-
-// Picks one light uniformly and samples a direction towards it from `p`.
-bool SampleOneLight(const Scene& scene, const Vec3f& p, Rng& rng, LightSample* s, float* select_pdf) {
-  const int n_point = static_cast<int>(scene.point_lights().size());
-  const int n_dir = static_cast<int>(scene.directional_lights().size());
-  const int n_quad = static_cast<int>(scene.quad_lights().size());
-  const int count = scene.light_count();
-  if (count == 0) return false;
-  *select_pdf = 1.0f / count;
-  int index = std::min(static_cast<int>(rng.Uniform() * count), count - 1);
-  const Vec2f u = rng.Uniform2();
-  if (index < n_point) {
-    const PointLight& light = scene.point_lights()[index];
-    const Vec3f d = light.position - p;
-    const float dist2 = d.squaredNorm();
-    if (dist2 <= 0) return false;
-    s->distance = std::sqrt(dist2);
-    s->wi = d / s->distance;
-    s->radiance = light.intensity / dist2;
-    s->delta = true;
-    return true;
-  }
-  index -= n_point;
-  if (index < n_dir) {
-    const DirectionalLight& light = scene.directional_lights()[index];
-    s->wi = light.direction_to_light.normalized();
-    s->radiance = light.irradiance;
-    s->delta = true;
-    return true;
-  }
-  index -= n_dir;
-  if (index < n_quad) {
-    const QuadLight& light = scene.quad_lights()[index];
-    const Vec3f q = light.corner + u.x() * light.edge_u + u.y() * light.edge_v;
-    const Vec3f d = q - p;
-    const float dist2 = d.squaredNorm();
-    s->distance = std::sqrt(dist2);
-    s->wi = d / s->distance;
-    const float cos_light = -s->wi.dot(light.Normal());
-    if (cos_light <= 0) return false;
-    s->radiance = light.radiance;
-    s->pdf = dist2 / (light.Area() * cos_light);
-    return true;
-  }
-  s->wi = scene.environment().Sample(u, &s->pdf);
-  if (!(s->pdf > 0)) return false;
-  s->radiance = scene.environment().Eval(s->wi);
-  return true;
-}
-
-// Solid-angle pdf that SampleOneLight picks direction wi hitting quad light q at distance t.
-float QuadLightPdf(const QuadLight& light, const Vec3f& wi, float t) {
-  const float cos_light = -wi.dot(light.Normal());
-  if (cos_light <= 0) return 0;
-  return t * t / (light.Area() * cos_light);
-}
-
-}  // namespace
 
 Rgb TraceRadiance(const Scene& scene, const Vec3f& origin_in, const Vec3f& direction_in,
                   const RenderOptions& options, Rng& rng) {
   Rgb radiance = Rgb::Zero();
   Rgb throughput = Rgb::Ones();
   Vec3f origin = origin_in, direction = direction_in.normalized();
-  float previous_bsdf_pdf = 0;
-  bool from_camera = true;
-  const float select_pdf = scene.light_count() > 0 ? 1.0f / scene.light_count() : 0.0f;
+  float bsdf_pdf = -1;  // < 0: the ray comes from the camera (no MIS)
 
   for (int bounce = 0;; ++bounce) {
     Hit hit;
     if (!scene.Intersect(origin, direction, 0.0f, kInfinity, &hit)) {
-      if (scene.environment().valid() && (!from_camera || options.environment_visible)) {
-        const float weight = from_camera ? 1.0f
-                                         : PowerHeuristic(previous_bsdf_pdf,
-                                                          select_pdf * scene.environment().Pdf(direction));
-        radiance += throughput * scene.environment().Eval(direction) * weight;
+      if (bsdf_pdf >= 0 || options.environment_visible) {
+        radiance += throughput * EscapedRadiance(scene, direction, bsdf_pdf);
       }
       break;
     }
     if (hit.quad_light >= 0) {
-      const QuadLight& light = scene.quad_lights()[hit.quad_light];
-      if (direction.dot(light.Normal()) < 0) {
-        const float weight = from_camera ? 1.0f
-                                         : PowerHeuristic(previous_bsdf_pdf,
-                                                          select_pdf * QuadLightPdf(light, direction, hit.t));
-        radiance += throughput * light.radiance * weight;
-      }
+      radiance += throughput * EmitterRadiance(scene, hit, direction, bsdf_pdf);
       break;
     }
     if (bounce >= options.max_depth) break;
@@ -141,29 +55,17 @@ Rgb TraceRadiance(const Scene& scene, const Vec3f& origin_in, const Vec3f& direc
 
     // Next-event estimation.
     LightSample ls;
-    float light_select_pdf = 0;
-    if (SampleOneLight(scene, hit.position, rng, &ls, &light_select_pdf) && ng.dot(ls.wi) > 0) {
+    float select_pdf = 0;
+    if (SampleOneLight(scene, hit.position, rng, &ls, &select_pdf) && ng.dot(ls.wi) > 0) {
       const Vec3f wi = frame.ToLocal(ls.wi);
       const Rgb f = EvalBsdf(bsdf, wo, wi);
-      if ((f > 0).any()) {
-        const Vec3f shadow_origin = OffsetOrigin(hit.position, ng, ls.wi);
-        Vec3f shadow_direction = ls.wi;
-        float t_max = kInfinity;
-        if (!std::isinf(ls.distance)) {
-          // Aim from the offset origin so the ray stops short of an emitter's surface.
-          const Vec3f to_light = hit.position + ls.distance * ls.wi - shadow_origin;
-          t_max = to_light.norm() * (1.0f - 1e-4f);
-          shadow_direction = to_light.normalized();
-        }
-        if (!scene.Occluded(shadow_origin, shadow_direction, 0.0f, t_max)) {
-          const float cos_i = wi.z();
-          if (ls.delta) {
-            radiance += throughput * f * ls.radiance * (cos_i / light_select_pdf);
-          } else {
-            const float light_pdf = light_select_pdf * ls.pdf;
-            const float weight = PowerHeuristic(light_pdf, PdfBsdf(bsdf, wo, wi));
-            radiance += throughput * f * ls.radiance * (cos_i * weight / light_pdf);
-          }
+      if ((f > 0).any() && Unoccluded(scene, hit.position, ng, ls)) {
+        if (ls.delta) {
+          radiance += throughput * f * ls.radiance * (wi.z() / select_pdf);
+        } else {
+          const float light_pdf = select_pdf * ls.pdf;
+          const float weight = PowerHeuristic(light_pdf, PdfBsdf(bsdf, wo, wi));
+          radiance += throughput * f * ls.radiance * (wi.z() * weight / light_pdf);
         }
       }
     }
@@ -175,8 +77,7 @@ Rgb TraceRadiance(const Scene& scene, const Vec3f& origin_in, const Vec3f& direc
     const Vec3f wi_world = frame.ToWorld(bs.wi);
     if (ng.dot(wi_world) <= 0) break;  // shading normal sent the ray under the surface
     throughput *= bs.weight;
-    previous_bsdf_pdf = bs.pdf;
-    from_camera = false;
+    bsdf_pdf = bs.pdf;
     origin = OffsetOrigin(hit.position, ng, wi_world);
     direction = wi_world;
 
@@ -253,11 +154,24 @@ Image RenderResult::Combined() const {
 
 RenderResult RenderImage(const Scene& scene, const Camera& camera, const RenderOptions& options,
                          const RenderProgress& progress) {
+  return RenderWithIntegrator(
+      scene, camera, options, {"R", "G", "B"},
+      [&](const Vec3f& origin, const Vec3f& direction, Rng& rng, float* out) {
+        const Rgb l = TraceRadiance(scene, origin, direction, options, rng);
+        for (int c = 0; c < 3; ++c) out[c] += l[c];
+      },
+      progress);
+}
+
+RenderResult RenderWithIntegrator(const Scene& scene, const Camera& camera, const RenderOptions& options,
+                                  const std::vector<std::string>& channel_names,
+                                  const SampleIntegrator& integrator, const RenderProgress& progress) {
   options.Check();
   camera.intrinsics().Check();
   const int width = camera.intrinsics().width, height = camera.intrinsics().height;
+  const int channels = static_cast<int>(channel_names.size());
   RenderResult result;
-  result.radiance = Image(width, height, std::vector<std::string>{"R", "G", "B"});
+  result.radiance = Image(width, height, channel_names);
   result.alpha = Image(width, height, std::vector<std::string>{"A"});
   result.uv = Image(width, height, std::vector<std::string>{"u", "v"});
   result.uv_derivatives = Image(width, height, std::vector<std::string>{"dudx", "dvdx", "dudy", "dvdy"});
@@ -286,10 +200,13 @@ RenderResult RenderImage(const Scene& scene, const Camera& camera, const RenderO
       for (int x = 0; x < width; ++x) {
         const uint64_t pixel_index = static_cast<uint64_t>(y) * width + x;
         Rng rng(MixBits(options.seed * 0x9E3779B97F4A7C15ULL + pixel_index), pixel_index);
-        Rgb sum = Rgb::Zero();
+        // Pixel positions have their own stream so alpha and coverage do not
+        // depend on how many numbers the integrator consumed.
+        Rng position_rng(MixBits(options.seed * 0xD1B54A32D192ED03ULL + pixel_index), pixel_index + 1);
+        float* sum = result.radiance.pixel(x, y);  // accumulated in place, zero-initialised
         int alpha_hits = 0;
         for (int s = 0; s < options.samples_per_pixel; ++s) {
-          const Vec2f u = rng.Uniform2();
+          const Vec2f u = position_rng.Uniform2();
           const float jx = ((s % strata_x) + u.x()) / strata_x;
           const float jy = ((s / strata_x) + u.y()) / strata_y;
           float dx = jx - 0.5f, dy = jy - 0.5f;
@@ -304,10 +221,9 @@ RenderResult RenderImage(const Scene& scene, const Camera& camera, const RenderO
           if (scene.Intersect(centre, direction, 0.0f, kInfinity, &first) && is_alpha_object(first.object_id)) {
             ++alpha_hits;
           }
-          sum += TraceRadiance(scene, centre, direction, options, rng);
+          integrator(centre, direction, rng, sum);
         }
-        const Rgb mean = sum / static_cast<float>(options.samples_per_pixel);
-        for (int c = 0; c < 3; ++c) result.radiance.at(x, y, c) = mean[c];
+        for (int c = 0; c < channels; ++c) sum[c] /= static_cast<float>(options.samples_per_pixel);
         result.alpha.at(x, y, 0) = static_cast<float>(alpha_hits) / options.samples_per_pixel;
 
         // Geometry AOVs from the pixel-centre ray.

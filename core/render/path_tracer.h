@@ -6,6 +6,7 @@
 #pragma once
 
 #include <functional>
+#include <string>
 #include <vector>
 
 #include "core/camera.h"
@@ -32,7 +33,7 @@ struct RenderOptions {
 // All outputs of one render. Geometry AOVs come from the ray through the
 // pixel centre; radiance and alpha are averaged over all samples.
 struct RenderResult {
-  Image radiance;        // R,G,B linear
+  Image radiance;        // R,G,B linear (or the integrator's channels)
   Image alpha;           // A: fraction of samples hitting an alpha object
   Image uv;              // u,v (0 where nothing was hit)
   Image uv_derivatives;  // dudx,dvdx,dudy,dvdy per pixel (ray differentials)
@@ -50,6 +51,18 @@ using RenderProgress = std::function<void(int, int)>;
 
 RenderResult RenderImage(const Scene& scene, const Camera& camera, const RenderOptions& options,
                          const RenderProgress& progress = {});
+
+// Adds one sample's values (as many as channel names) to `out` for a camera
+// ray; must be thread-safe and draw randomness only from `rng`.
+using SampleIntegrator = std::function<void(const Vec3f& origin, const Vec3f& direction, Rng& rng, float* out)>;
+
+// The image loop behind RenderImage with a custom integrator: stratified
+// pixel samples, per-pixel random streams, alpha and geometry AOVs. The
+// integrator's per-pixel mean lands in RenderResult::radiance with the given
+// channel names.
+RenderResult RenderWithIntegrator(const Scene& scene, const Camera& camera, const RenderOptions& options,
+                                  const std::vector<std::string>& channel_names,
+                                  const SampleIntegrator& integrator, const RenderProgress& progress = {});
 
 // Radiance arriving along one ray (exposed for tests).
 Rgb TraceRadiance(const Scene& scene, const Vec3f& origin, const Vec3f& direction,

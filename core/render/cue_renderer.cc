@@ -1,0 +1,137 @@
+#include "core/render/cue_renderer.h"
+
+#include <algorithm>
+
+#include "core/error.h"
+#include "core/render/light_sampling.h"
+
+namespace relit::render {
+
+std::vector<CueBasis> DefaultCueBasis() {
+  std::vector<CueBasis> basis;
+  BsdfParams lambert;
+  lambert.diffuse = Rgb::Ones();
+  basis.push_back({"lambert", lambert});
+  for (float alpha : {0.02f, 0.05f, 0.13f, 0.34f}) {
+    BsdfParams ggx;
+    ggx.specular = Rgb::Ones();
+    ggx.f0 = Rgb::Ones();
+    ggx.alpha = alpha;
+    char name[32];
+    std::snprintf(name, sizeof(name), "ggx_%.2f", alpha);
+    basis.push_back({name, ggx});
+  }
+  return basis;
+}
+
+std::vector<std::string> CueChannelNames(int count) {
+  std::vector<std::string> names;
+  for (int k = 0; k < count; ++k) {
+    for (const char* c : {"R", "G", "B"}) names.push_back("cue" + std::to_string(k) + "." + c);
+  }
+  return names;
+}
+
+namespace {
+constexpr int kMaxBasis = 8;
+
+float MixturePdf(const std::vector<CueBasis>& basis, const Vec3f& wo, const Vec3f& wi) {
+  float sum = 0;
+  for (const CueBasis& b : basis) sum += PdfBsdf(b.bsdf, wo, wi);
+  return sum / basis.size();
+}
+}  // namespace
+
+void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec3f& origin_in,
+               const Vec3f& direction_in, const RenderOptions& options, Rng& rng, float* out) {
+  const int k_count = static_cast<int>(basis.size());
+  RELIT_CHECK(k_count >= 1 && k_count <= kMaxBasis);
+  Rgb throughput[kMaxBasis];
+  for (int k = 0; k < k_count; ++k) throughput[k] = Rgb::Ones();
+  auto add = [&](int k, const Rgb& value) {
+    if (!value.allFinite()) return;
+    for (int c = 0; c < 3; ++c) out[3 * k + c] += value[c];
+  };
+  Vec3f origin = origin_in, direction = direction_in.normalized();
+  float bsdf_pdf = -1;  // < 0: camera ray
+
+  for (int bounce = 0;; ++bounce) {
+    Hit hit;
+    if (!scene.Intersect(origin, direction, 0.0f, kInfinity, &hit)) {
+      if (bsdf_pdf >= 0 || options.environment_visible) {
+        const Rgb le = EscapedRadiance(scene, direction, bsdf_pdf);
+        for (int k = 0; k < k_count; ++k) add(k, throughput[k] * le);
+      }
+      return;
+    }
+    if (hit.quad_light >= 0) {
+      const Rgb le = EmitterRadiance(scene, hit, direction, bsdf_pdf);
+      for (int k = 0; k < k_count; ++k) add(k, throughput[k] * le);
+      return;
+    }
+    if (bounce >= options.max_depth) return;
+
+    Vec3f ng = hit.geometric_normal, ns = hit.shading_normal;
+    if (ng.dot(direction) > 0) ng = -ng;
+    if (ns.dot(ng) < 0) ns = -ns;
+    const Frame frame(ns);
+    const Vec3f wo = frame.ToLocal(-direction);
+    if (wo.z() <= 0) return;
+
+    // One light sample, evaluated with every basis BSDF.
+    LightSample ls;
+    float select_pdf = 0;
+    if (SampleOneLight(scene, hit.position, rng, &ls, &select_pdf) && ng.dot(ls.wi) > 0 &&
+        Unoccluded(scene, hit.position, ng, ls)) {
+      const Vec3f wi = frame.ToLocal(ls.wi);
+      if (wi.z() > 0) {
+        float scale = wi.z() / select_pdf;
+        if (!ls.delta) {
+          const float light_pdf = select_pdf * ls.pdf;
+          scale = wi.z() * PowerHeuristic(light_pdf, MixturePdf(basis, wo, wi)) / light_pdf;
+        }
+        for (int k = 0; k < k_count; ++k) {
+          add(k, throughput[k] * EvalBsdf(basis[k].bsdf, wo, wi) * ls.radiance * scale);
+        }
+      }
+    }
+
+    // One direction from the mixture of the basis BSDFs.
+    const int chosen = std::min(static_cast<int>(rng.Uniform() * k_count), k_count - 1);
+    BsdfSample bs;
+    const float u_lobe = rng.Uniform();
+    if (!SampleBsdf(basis[chosen].bsdf, wo, u_lobe, rng.Uniform2(), &bs)) return;
+    const Vec3f wi_world = frame.ToWorld(bs.wi);
+    if (ng.dot(wi_world) <= 0) return;
+    const float mixture_pdf = MixturePdf(basis, wo, bs.wi);
+    if (!(mixture_pdf > 0)) return;
+    float max_throughput = 0;
+    for (int k = 0; k < k_count; ++k) {
+      throughput[k] *= EvalBsdf(basis[k].bsdf, wo, bs.wi) * (bs.wi.z() / mixture_pdf);
+      max_throughput = std::max(max_throughput, throughput[k].maxCoeff());
+    }
+    bsdf_pdf = mixture_pdf;
+    origin = OffsetOrigin(hit.position, ng, wi_world);
+    direction = wi_world;
+
+    if (bounce + 1 >= options.russian_roulette_depth) {
+      const float q = std::min(0.95f, max_throughput);
+      if (rng.Uniform() >= q) return;
+      for (int k = 0; k < k_count; ++k) throughput[k] /= q;
+    }
+  }
+}
+
+RenderResult RenderCues(const Scene& scene, const Camera& camera, const RenderOptions& options,
+                        const std::vector<CueBasis>& basis, const RenderProgress& progress) {
+  RELIT_REQUIRE(!basis.empty() && static_cast<int>(basis.size()) <= kMaxBasis,
+                "radiance cues need 1 to ", kMaxBasis, " basis materials, got ", basis.size());
+  return RenderWithIntegrator(
+      scene, camera, options, CueChannelNames(static_cast<int>(basis.size())),
+      [&](const Vec3f& origin, const Vec3f& direction, Rng& rng, float* out) {
+        TraceCues(scene, basis, origin, direction, options, rng, out);
+      },
+      progress);
+}
+
+}  // namespace relit::render

@@ -1,0 +1,43 @@
+// Radiance cues of Deferred Neural Lighting: the proxy geometry rendered, with
+// global illumination, as if made entirely of each of a few basis materials.
+//
+// All basis materials are traced along one shared path per sample: the camera
+// ray, its primary hit and every light sample are shared, directions are drawn
+// from the equal-weight mixture of the basis BSDFs, and each basis keeps its
+// own path throughput (f_k cos / p_mixture). MIS weights use the mixture pdf,
+// which keeps every cue unbiased while paying for one path instead of five.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/render/path_tracer.h"
+
+namespace relit::render {
+
+struct CueBasis {
+  std::string name;
+  BsdfParams bsdf;
+};
+
+// DNL's basis: Lambert (albedo 1) and Cook-Torrance GGX with alpha 0.02,
+// 0.05, 0.13 and 0.34 (relit roughness = GGX alpha), specular multiplier 1
+// and F0 = 1, i.e. no Fresnel dimming: the cues span reflectance shapes and
+// the network learns each texel's scale and Fresnel behaviour.
+std::vector<CueBasis> DefaultCueBasis();
+
+// Channel names "cue<k>.R", "cue<k>.G", "cue<k>.B" for k = 0..count-1.
+std::vector<std::string> CueChannelNames(int count);
+
+// Adds one sample of every basis cue (3 floats per basis) to `out`.
+void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec3f& origin,
+               const Vec3f& direction, const RenderOptions& options, Rng& rng, float* out);
+
+// Renders all cues for one camera. RenderResult::radiance holds 3 x basis
+// channels; alpha, uv, uv derivatives and the other AOVs are as RenderImage's.
+// The scene's own materials are ignored.
+RenderResult RenderCues(const Scene& scene, const Camera& camera, const RenderOptions& options,
+                        const std::vector<CueBasis>& basis = DefaultCueBasis(),
+                        const RenderProgress& progress = {});
+
+}  // namespace relit::render

@@ -1,0 +1,124 @@
+#include "core/render/cue_renderer.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+namespace relit::render {
+namespace {
+
+Camera LookingAt(const Eigen::Vector3d& eye, int size, const Eigen::Vector3d& up = Eigen::Vector3d::UnitZ()) {
+  return Camera(Intrinsics::FromFov(size, size, 45.0 * M_PI / 180.0), LookAt(eye, Eigen::Vector3d::Zero(), up));
+}
+
+TEST(CueRenderer, DefaultBasisIsLambertPlusFourGgx) {
+  const auto basis = DefaultCueBasis();
+  ASSERT_EQ(basis.size(), 5u);
+  EXPECT_EQ(basis[0].bsdf.diffuse[0], 1.0f);
+  EXPECT_EQ(basis[0].bsdf.specular[0], 0.0f);
+  const float alphas[] = {0.02f, 0.05f, 0.13f, 0.34f};
+  for (int k = 1; k < 5; ++k) {
+    EXPECT_EQ(basis[k].bsdf.alpha, alphas[k - 1]);
+    EXPECT_EQ(basis[k].bsdf.diffuse[0], 0.0f);
+  }
+  EXPECT_EQ(CueChannelNames(5).size(), 15u);
+  EXPECT_EQ(CueChannelNames(5)[14], "cue4.B");
+}
+
+TEST(CueRenderer, LambertCueOfPlaneUnderColouredPointLightIsAnalytic) {
+  const Vec3f light(0.05f, 0.1f, 0.6f);
+  const Rgb intensity(0.5f, 1.0f, 2.0f);
+  Scene scene;
+  scene.AddObject(MakeQuad(Vec3f::Zero(), Vec3f::UnitX(), Vec3f::UnitY(), 1, 1), Material::Lambert(Rgb::Constant(0.3f)), 1);
+  scene.AddLight(PointLight{light, intensity});
+  scene.Commit();
+  RenderOptions options;
+  options.samples_per_pixel = 64;
+  const Camera camera = LookingAt({0, 0, 1.2}, 24, Eigen::Vector3d::UnitY());
+  const RenderResult r = RenderCues(scene, camera, options);
+  ASSERT_EQ(r.radiance.channels(), 15);
+  // Reference: Lambert (albedo 1) radiance I cos / (pi d^2) averaged over the
+  // pixel footprint on the plane z = 0.
+  auto analytic = [&](double px, double py, int c) {
+    const Eigen::Vector3d ray = camera.PixelToWorldRay({px, py});
+    const Eigen::Vector3d o = camera.Center();
+    const Vec3f d = light - (o - (o.z() / ray.z()) * ray).cast<float>();
+    return intensity[c] * (d.z() / d.norm()) / (kPi * d.squaredNorm());
+  };
+  for (int y = 2; y < 22; y += 5) {
+    for (int x = 2; x < 22; x += 5) {
+      for (int c = 0; c < 3; ++c) {
+        double expected = 0;
+        for (int i = 0; i < 16; ++i) {
+          for (int j = 0; j < 16; ++j) expected += analytic(x - 0.5 + (i + 0.5) / 16, y - 0.5 + (j + 0.5) / 16, c);
+        }
+        expected /= 256;
+        EXPECT_NEAR(r.radiance.at(x, y, c), expected, 0.003 * expected);
+      }
+    }
+  }
+}
+
+// Each cue must equal a plain path-traced render of the scene made of that
+// basis material, including interreflections.
+TEST(CueRenderer, EachCueMatchesPathTracerWithThatMaterial) {
+  auto build = [](const Material* material, Scene* scene) {
+    const Material m = material ? *material : Material::Lambert(Rgb::Ones());
+    scene->AddObject(MakeSphere(Vec3f(0, 0, 0.2f), 0.2f, 48, 24), m, 1);
+    scene->AddObject(MakeQuad(Vec3f::Zero(), Vec3f::UnitX(), Vec3f::UnitY(), 0.6f, 0.6f), m, 2);
+    scene->AddLight(PointLight{Vec3f(0.3f, -0.4f, 0.8f), Rgb::Constant(1.0f)});
+    scene->Commit();
+  };
+  Scene cue_scene;
+  build(nullptr, &cue_scene);
+  RenderOptions options;
+  options.samples_per_pixel = 64;
+  options.max_depth = 4;
+  const Camera camera = LookingAt({0.6, -0.9, 0.7}, 20);
+  const RenderResult cues = RenderCues(cue_scene, camera, options);
+  const auto basis = DefaultCueBasis();
+  for (size_t k = 0; k < basis.size(); ++k) {
+    Material m;
+    m.diffuse_albedo = basis[k].bsdf.diffuse;
+    m.specular_albedo = basis[k].bsdf.specular;
+    m.roughness = Rgb::Constant(basis[k].bsdf.alpha);
+    m.f0 = basis[k].bsdf.f0;
+    Scene scene;
+    build(&m, &scene);
+    RenderOptions reference_options = options;
+    reference_options.seed = 99;
+    const RenderResult reference = RenderImage(scene, camera, reference_options);
+    // Compare image means (per-pixel noise is large for sharp lobes).
+    double cue_sum = 0, ref_sum = 0, var_cue = 0, var_ref = 0;
+    const int n = 20 * 20;
+    for (int y = 0; y < 20; ++y) {
+      for (int x = 0; x < 20; ++x) {
+        const double a = cues.radiance.at(x, y, 3 * k), b = reference.radiance.at(x, y, 0);
+        cue_sum += a;
+        ref_sum += b;
+        var_cue += a * a;
+        var_ref += b * b;
+      }
+    }
+    const double mean_cue = cue_sum / n, mean_ref = ref_sum / n;
+    const double se = std::sqrt((var_cue / n - mean_cue * mean_cue + var_ref / n - mean_ref * mean_ref) / n);
+    EXPECT_NEAR(mean_cue, mean_ref, 4 * se + 0.01 * mean_ref) << basis[k].name;
+  }
+}
+
+TEST(CueRenderer, SharesAovsWithPathTracer) {
+  Scene scene;
+  scene.AddObject(MakeSphere(Vec3f::Zero(), 0.3f), Material::Lambert(Rgb::Ones()), 4);
+  scene.AddLight(DirectionalLight{Vec3f::UnitZ(), Rgb::Ones()});
+  scene.Commit();
+  RenderOptions options;
+  options.samples_per_pixel = 4;
+  const Camera camera = LookingAt({0, -1, 0.2}, 16);
+  const RenderResult a = RenderCues(scene, camera, options), b = RenderImage(scene, camera, options);
+  EXPECT_EQ(a.alpha.data(), b.alpha.data());
+  EXPECT_EQ(a.uv.data(), b.uv.data());
+  EXPECT_EQ(a.uv_derivatives.data(), b.uv_derivatives.data());
+}
+
+}  // namespace
+}  // namespace relit::render
