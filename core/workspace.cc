@@ -1,0 +1,178 @@
+#include "core/workspace.h"
+
+#include "core/error.h"
+#include "core/json_file.h"
+
+namespace relit {
+
+namespace {
+using nlohmann::json;
+
+template <typename T>
+const T* FindByName(const std::vector<T>& items, const std::string& name, std::string T::*field) {
+  for (const T& item : items) {
+    if (item.*field == name) return &item;
+  }
+  return nullptr;
+}
+
+bool JsonBool(const json& object, const std::string& key, const std::string& where) {
+  const json& value = JsonField(object, key, where);
+  RELIT_REQUIRE(value.is_boolean(), where, ": field '", key, "' must be true or false");
+  return value.get<bool>();
+}
+}  // namespace
+
+json ToJson(const BoardSpec& board) {
+  return {{"squares_x", board.squares_x},
+          {"squares_y", board.squares_y},
+          {"square_length_m", board.square_length_m},
+          {"marker_length_m", board.marker_length_m},
+          {"dictionary", board.dictionary}};
+}
+
+BoardSpec BoardSpecFromJson(const json& j, const std::string& where) {
+  BoardSpec board;
+  board.squares_x = JsonInt(j, "squares_x", where);
+  board.squares_y = JsonInt(j, "squares_y", where);
+  board.square_length_m = JsonNumber(j, "square_length_m", where);
+  board.marker_length_m = JsonNumber(j, "marker_length_m", where);
+  board.dictionary = JsonString(j, "dictionary", where);
+  board.Check();
+  return board;
+}
+
+std::vector<const CalibratedFrame*> CamerasFile::FramesOf(const std::string& device) const {
+  std::vector<const CalibratedFrame*> result;
+  for (const CalibratedFrame& frame : frames) {
+    if (frame.device == device) result.push_back(&frame);
+  }
+  return result;
+}
+
+const CalibratedFrame* CamerasFile::Find(const std::string& name) const {
+  return FindByName(frames, name, &CalibratedFrame::name);
+}
+
+Camera CamerasFile::ViewCamera(const CalibratedFrame& frame) const {
+  return Camera(undistorted_view, frame.cam_from_world);
+}
+
+CamerasFile ReadCamerasFile(const std::string& path) {
+  const json j = ReadJsonFile(path, CamerasFile::kKind, CamerasFile::kVersion);
+  CamerasFile file;
+  file.board = BoardSpecFromJson(JsonField(j, "board", path), path + ": board");
+  for (const auto& [name, value] : JsonField(j, "devices", path).items()) {
+    file.devices[name] = IntrinsicsFromJson(value, path + ": devices." + name);
+  }
+  file.undistorted_view = IntrinsicsFromJson(JsonField(j, "undistorted_view", path), path + ": undistorted_view");
+  const json& frames = JsonField(j, "frames", path);
+  RELIT_REQUIRE(frames.is_array(), path, ": 'frames' must be a list");
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const std::string where = path + ": frames[" + std::to_string(i) + "]";
+    CalibratedFrame frame;
+    frame.name = JsonString(frames[i], "name", where);
+    frame.device = JsonString(frames[i], "device", where);
+    RELIT_REQUIRE(file.devices.count(frame.device), where, ": unknown device '", frame.device, "'");
+    frame.time_s = JsonNumber(frames[i], "time_s", where);
+    frame.cam_from_world = Rigid3FromJson(JsonField(frames[i], "cam_from_world", where), where);
+    frame.image_linear = JsonString(frames[i], "image_linear", where);
+    frame.image_8bit = JsonString(frames[i], "image_8bit", where);
+    file.frames.push_back(frame);
+  }
+  return file;
+}
+
+void WriteCamerasFile(const std::string& path, const CamerasFile& file) {
+  json devices = json::object();
+  for (const auto& [name, intrinsics] : file.devices) devices[name] = ToJson(intrinsics);
+  json frames = json::array();
+  for (const CalibratedFrame& frame : file.frames) {
+    frames.push_back({{"name", frame.name},
+                      {"device", frame.device},
+                      {"time_s", frame.time_s},
+                      {"cam_from_world", ToJson(frame.cam_from_world)},
+                      {"image_linear", frame.image_linear},
+                      {"image_8bit", frame.image_8bit}});
+  }
+  WriteJsonFile(path, CamerasFile::kKind, CamerasFile::kVersion,
+                {{"units", "metres; world = board frame, +Z up"},
+                 {"board", ToJson(file.board)},
+                 {"devices", devices},
+                 {"undistorted_view", ToJson(file.undistorted_view)},
+                 {"frames", frames}});
+}
+
+const FrameLight* LightsFile::Find(const std::string& view_frame) const {
+  return FindByName(frames, view_frame, &FrameLight::view_frame);
+}
+
+LightsFile ReadLightsFile(const std::string& path) {
+  const json j = ReadJsonFile(path, LightsFile::kKind, LightsFile::kVersion);
+  LightsFile file;
+  file.flash_offset_m = Vector3FromJson(JsonField(j, "flash_offset_m", path), path + ": flash_offset_m");
+  const json& frames = JsonField(j, "frames", path);
+  RELIT_REQUIRE(frames.is_array(), path, ": 'frames' must be a list");
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const std::string where = path + ": frames[" + std::to_string(i) + "]";
+    FrameLight light;
+    light.view_frame = JsonString(frames[i], "view_frame", where);
+    light.time_s = JsonNumber(frames[i], "time_s", where);
+    light.position_m = Vector3FromJson(JsonField(frames[i], "position_m", where), where);
+    light.nearest_light_gap_s = JsonNumber(frames[i], "nearest_light_gap_s", where);
+    light.reliable = JsonBool(frames[i], "reliable", where);
+    file.frames.push_back(light);
+  }
+  return file;
+}
+
+void WriteLightsFile(const std::string& path, const LightsFile& file) {
+  json frames = json::array();
+  for (const FrameLight& light : file.frames) {
+    frames.push_back({{"view_frame", light.view_frame},
+                      {"time_s", light.time_s},
+                      {"position_m", ToJson(light.position_m)},
+                      {"nearest_light_gap_s", light.nearest_light_gap_s},
+                      {"reliable", light.reliable}});
+  }
+  WriteJsonFile(path, LightsFile::kKind, LightsFile::kVersion,
+                {{"units", "metres; world = board frame, +Z up"},
+                 {"flash_offset_m", ToJson(file.flash_offset_m)},
+                 {"frames", frames}});
+}
+
+const ViewMatte* ProxyFile::Find(const std::string& view_frame) const {
+  return FindByName(mattes, view_frame, &ViewMatte::view_frame);
+}
+
+ProxyFile ReadProxyFile(const std::string& path) {
+  const json j = ReadJsonFile(path, ProxyFile::kKind, ProxyFile::kVersion);
+  ProxyFile file;
+  file.mesh = JsonString(j, "mesh", path);
+  file.atlas_resolution_px = JsonInt(j, "atlas_resolution_px", path);
+  file.object_centre_m = Vector3FromJson(JsonField(j, "object_centre_m", path), path + ": object_centre_m");
+  file.object_radius_m = JsonNumber(j, "object_radius_m", path);
+  const json& mattes = JsonField(j, "mattes", path);
+  RELIT_REQUIRE(mattes.is_array(), path, ": 'mattes' must be a list");
+  for (size_t i = 0; i < mattes.size(); ++i) {
+    const std::string where = path + ": mattes[" + std::to_string(i) + "]";
+    file.mattes.push_back({JsonString(mattes[i], "view_frame", where), JsonString(mattes[i], "matte", where),
+                           JsonString(mattes[i], "trimap", where)});
+  }
+  return file;
+}
+
+void WriteProxyFile(const std::string& path, const ProxyFile& file) {
+  json mattes = json::array();
+  for (const ViewMatte& m : file.mattes) {
+    mattes.push_back({{"view_frame", m.view_frame}, {"matte", m.matte}, {"trimap", m.trimap}});
+  }
+  WriteJsonFile(path, ProxyFile::kKind, ProxyFile::kVersion,
+                {{"mesh", file.mesh},
+                 {"atlas_resolution_px", file.atlas_resolution_px},
+                 {"object_centre_m", ToJson(file.object_centre_m)},
+                 {"object_radius_m", file.object_radius_m},
+                 {"mattes", mattes}});
+}
+
+}  // namespace relit
