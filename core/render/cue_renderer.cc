@@ -43,7 +43,8 @@ float MixturePdf(const std::vector<CueBasis>& basis, const Vec3f& wo, const Vec3
 }  // namespace
 
 void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec3f& origin_in,
-               const Vec3f& direction_in, const RenderOptions& options, Rng& rng, float* out) {
+               const Vec3f& direction_in, const Hit* primary, const RenderOptions& options, Rng& rng,
+               float* out) {
   const int k_count = static_cast<int>(basis.size());
   RELIT_CHECK(k_count >= 1 && k_count <= kMaxBasis);
   Rgb throughput[kMaxBasis];
@@ -57,7 +58,7 @@ void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec
 
   for (int bounce = 0;; ++bounce) {
     Hit hit;
-    if (!scene.Intersect(origin, direction, 0.0f, kInfinity, &hit)) {
+    if (!NextHit(scene, bounce, primary, origin, direction, &hit)) {
       if (bsdf_pdf >= 0 || options.environment_visible) {
         const Rgb le = EscapedRadiance(scene, direction, bsdf_pdf);
         for (int k = 0; k < k_count; ++k) add(k, throughput[k] * le);
@@ -128,8 +129,8 @@ RenderResult RenderCues(const Scene& scene, const Camera& camera, const RenderOp
                 "radiance cues need 1 to ", kMaxBasis, " basis materials, got ", basis.size());
   return RenderWithIntegrator(
       scene, camera, options, CueChannelNames(static_cast<int>(basis.size())),
-      [&](const Vec3f& origin, const Vec3f& direction, Rng& rng, float* out) {
-        TraceCues(scene, basis, origin, direction, options, rng, out);
+      [&](const Vec3f& origin, const Vec3f& direction, const Hit* primary, Rng& rng, float* out) {
+        TraceCues(scene, basis, origin, direction, primary, options, rng, out);
       },
       progress);
 }

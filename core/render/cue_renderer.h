@@ -30,8 +30,10 @@ std::vector<CueBasis> DefaultCueBasis();
 std::vector<std::string> CueChannelNames(int count);
 
 // Adds one sample of every basis cue (3 floats per basis) to `out`.
+// `primary` is the camera ray's first intersection (nullptr = miss).
 void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec3f& origin,
-               const Vec3f& direction, const RenderOptions& options, Rng& rng, float* out);
+               const Vec3f& direction, const Hit* primary, const RenderOptions& options, Rng& rng,
+               float* out);
 
 // Renders all cues for one camera. RenderResult::radiance holds 3 x basis
 // channels; alpha, uv, uv derivatives and the other AOVs are as RenderImage's.

@@ -31,6 +31,17 @@ bool Unoccluded(const Scene& scene, const Vec3f& p, const Vec3f& ng, const Light
 // Solid-angle pdf that SampleOneLight picks direction wi hitting quad light q at distance t.
 float QuadLightPdf(const QuadLight& light, const Vec3f& wi, float t);
 
+// The next intersection of a path: the given primary hit at bounce 0
+// (nullptr = the camera ray missed), a traced ray afterwards.
+inline bool NextHit(const Scene& scene, int bounce, const Hit* primary, const Vec3f& origin,
+                    const Vec3f& direction, Hit* hit) {
+  if (bounce == 0) {
+    if (primary) *hit = *primary;
+    return primary != nullptr;
+  }
+  return scene.Intersect(origin, direction, 0.0f, kInfinity, hit);
+}
+
 // Emitted radiance seen along `direction` when a ray escapes the scene
 // (environment) or hits a quad light, weighted by the power heuristic against
 // light sampling unless the ray came from the camera (bsdf_pdf < 0).

@@ -23,8 +23,15 @@ void RenderOptions::Check() const {
 }
 
 
-Rgb TraceRadiance(const Scene& scene, const Vec3f& origin_in, const Vec3f& direction_in,
+Rgb TraceRadiance(const Scene& scene, const Vec3f& origin, const Vec3f& direction,
                   const RenderOptions& options, Rng& rng) {
+  Hit primary;
+  const bool found = scene.Intersect(origin, direction.normalized(), 0.0f, kInfinity, &primary);
+  return TraceRadianceFrom(scene, origin, direction, found ? &primary : nullptr, options, rng);
+}
+
+Rgb TraceRadianceFrom(const Scene& scene, const Vec3f& origin_in, const Vec3f& direction_in,
+                      const Hit* primary, const RenderOptions& options, Rng& rng) {
   Rgb radiance = Rgb::Zero();
   Rgb throughput = Rgb::Ones();
   Vec3f origin = origin_in, direction = direction_in.normalized();
@@ -32,7 +39,7 @@ Rgb TraceRadiance(const Scene& scene, const Vec3f& origin_in, const Vec3f& direc
 
   for (int bounce = 0;; ++bounce) {
     Hit hit;
-    if (!scene.Intersect(origin, direction, 0.0f, kInfinity, &hit)) {
+    if (!NextHit(scene, bounce, primary, origin, direction, &hit)) {
       if (bsdf_pdf >= 0 || options.environment_visible) {
         radiance += throughput * EscapedRadiance(scene, direction, bsdf_pdf);
       }
@@ -156,8 +163,8 @@ RenderResult RenderImage(const Scene& scene, const Camera& camera, const RenderO
                          const RenderProgress& progress) {
   return RenderWithIntegrator(
       scene, camera, options, {"R", "G", "B"},
-      [&](const Vec3f& origin, const Vec3f& direction, Rng& rng, float* out) {
-        const Rgb l = TraceRadiance(scene, origin, direction, options, rng);
+      [&](const Vec3f& origin, const Vec3f& direction, const Hit* primary, Rng& rng, float* out) {
+        const Rgb l = TraceRadianceFrom(scene, origin, direction, primary, options, rng);
         for (int c = 0; c < 3; ++c) out[c] += l[c];
       },
       progress);
@@ -217,11 +224,11 @@ RenderResult RenderWithIntegrator(const Scene& scene, const Camera& camera, cons
             dy = r * std::sin(2.0f * kPi * jy);
           }
           const Vec3f direction = ray_through(x + dx, y + dy);
+          // One primary ray serves both the alpha AOV and the integrator.
           Hit first;
-          if (scene.Intersect(centre, direction, 0.0f, kInfinity, &first) && is_alpha_object(first.object_id)) {
-            ++alpha_hits;
-          }
-          integrator(centre, direction, rng, sum);
+          const bool found = scene.Intersect(centre, direction, 0.0f, kInfinity, &first);
+          if (found && is_alpha_object(first.object_id)) ++alpha_hits;
+          integrator(centre, direction, found ? &first : nullptr, rng, sum);
         }
         for (int c = 0; c < channels; ++c) sum[c] /= static_cast<float>(options.samples_per_pixel);
         result.alpha.at(x, y, 0) = static_cast<float>(alpha_hits) / options.samples_per_pixel;

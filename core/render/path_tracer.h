@@ -53,8 +53,11 @@ RenderResult RenderImage(const Scene& scene, const Camera& camera, const RenderO
                          const RenderProgress& progress = {});
 
 // Adds one sample's values (as many as channel names) to `out` for a camera
-// ray; must be thread-safe and draw randomness only from `rng`.
-using SampleIntegrator = std::function<void(const Vec3f& origin, const Vec3f& direction, Rng& rng, float* out)>;
+// ray whose first intersection the image loop already found (`primary`,
+// nullptr when the ray left the scene); must be thread-safe and draw
+// randomness only from `rng`.
+using SampleIntegrator = std::function<void(const Vec3f& origin, const Vec3f& direction,
+                                            const Hit* primary, Rng& rng, float* out)>;
 
 // The image loop behind RenderImage with a custom integrator: stratified
 // pixel samples, per-pixel random streams, alpha and geometry AOVs. The
@@ -67,5 +70,8 @@ RenderResult RenderWithIntegrator(const Scene& scene, const Camera& camera, cons
 // Radiance arriving along one ray (exposed for tests).
 Rgb TraceRadiance(const Scene& scene, const Vec3f& origin, const Vec3f& direction,
                   const RenderOptions& options, Rng& rng);
+// The same, continuing from a known first intersection (nullptr = miss).
+Rgb TraceRadianceFrom(const Scene& scene, const Vec3f& origin, const Vec3f& direction,
+                      const Hit* primary, const RenderOptions& options, Rng& rng);
 
 }  // namespace relit::render

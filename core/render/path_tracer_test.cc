@@ -1,5 +1,6 @@
 #include "core/render/path_tracer.h"
 
+#include <atomic>
 #include <cmath>
 
 #include <gtest/gtest.h>
@@ -279,6 +280,39 @@ TEST(PathTracer, RejectsBadOptions) {
   options = RenderOptions();
   options.max_depth = 0;
   EXPECT_THROW(options.Check(), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace relit::render
+
+namespace relit::render {
+namespace {
+
+class CountingObserver : public RayObserver {
+ public:
+  void OnRay(const Vec3f&, const Vec3f&, float, float, bool occlusion) override {
+    (occlusion ? occluded : intersected).fetch_add(1, std::memory_order_relaxed);
+  }
+  std::atomic<uint64_t> intersected{0}, occluded{0};
+};
+
+TEST(PathTracer, RayObserverSeesEveryRay) {
+  // A plane under a point light with max_depth 1: per sample one camera ray
+  // (shared by alpha and shading), one shadow ray on a hit and one BSDF ray
+  // (which may stop early); plus one pixel-centre AOV ray per pixel.
+  Scene scene;
+  scene.AddObject(MakeQuad(Vec3f::Zero(), Vec3f::UnitX(), Vec3f::UnitY(), 5, 5), Material::Lambert(Rgb::Ones()), 1);
+  scene.AddLight(PointLight{Vec3f(0, 0, 1), Rgb::Ones()});
+  scene.Commit();
+  CountingObserver observer;
+  scene.set_ray_observer(&observer);
+  RenderOptions options;
+  options.samples_per_pixel = 4;
+  options.max_depth = 1;
+  RenderImage(scene, LookingAt({0, 0, 1}, {0, 0, 0}, 8, 40, Eigen::Vector3d::UnitY()), options);
+  const uint64_t pixels = 64, samples = pixels * 4;
+  EXPECT_EQ(observer.occluded.load(), samples);                 // every sample hits the plane
+  EXPECT_EQ(observer.intersected.load(), samples + pixels + samples);  // camera + AOV + continuation
 }
 
 }  // namespace

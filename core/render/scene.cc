@@ -160,6 +160,7 @@ void Scene::Commit() {
 bool Scene::Intersect(const Vec3f& origin, const Vec3f& direction, float t_min, float t_max,
                       Hit* hit) const {
   RELIT_CHECK(committed_);
+  if (ray_observer_) ray_observer_->OnRay(origin, direction, t_min, t_max, false);
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRayHit rayhit;
@@ -207,6 +208,7 @@ bool Scene::Intersect(const Vec3f& origin, const Vec3f& direction, float t_min, 
 
 bool Scene::Occluded(const Vec3f& origin, const Vec3f& direction, float t_min, float t_max) const {
   RELIT_CHECK(committed_);
+  if (ray_observer_) ray_observer_->OnRay(origin, direction, t_min, t_max, true);
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRay ray;

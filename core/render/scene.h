@@ -43,6 +43,15 @@ struct Hit {
   int quad_light = -1;         // index into quad_lights() when an emitter was hit
 };
 
+// Sees every ray a Scene traces (for benchmarks and statistics). Called
+// concurrently from the rendering threads: implementations must be thread-safe.
+class RayObserver {
+ public:
+  virtual ~RayObserver() = default;
+  virtual void OnRay(const Vec3f& origin, const Vec3f& direction, float t_min, float t_max,
+                     bool occlusion) = 0;
+};
+
 class Scene {
  public:
   Scene();
@@ -69,6 +78,9 @@ class Scene {
   bool Intersect(const Vec3f& origin, const Vec3f& direction, float t_min, float t_max,
                  Hit* hit) const;
   bool Occluded(const Vec3f& origin, const Vec3f& direction, float t_min, float t_max) const;
+
+  // Optional observer of every Intersect/Occluded call (nullptr = none).
+  void set_ray_observer(RayObserver* observer) { ray_observer_ = observer; }
 
   const std::vector<PointLight>& point_lights() const { return point_lights_; }
   const std::vector<DirectionalLight>& directional_lights() const { return directional_lights_; }
@@ -98,6 +110,7 @@ class Scene {
   std::vector<QuadLight> quad_lights_;
   EnvironmentLight environment_;
   bool committed_ = false;
+  RayObserver* ray_observer_ = nullptr;
 };
 
 }  // namespace relit::render
