@@ -128,6 +128,8 @@ void WriteImage(const std::string& path, const Image& image, PixelStorage storag
   OIIO::ImageSpec spec(image.width(), image.height(), image.channels(), type);
   spec.channelnames.assign(image.channel_names().begin(), image.channel_names().end());
   if (ext == ".exr") spec.attribute("compression", "zip");
+  // OpenImageIO stamps the current time by default; reruns must give identical bytes.
+  spec.attribute("DateTime", "");
   const int alpha = image.ChannelIndex("A");
   spec.alpha_channel = alpha;
 

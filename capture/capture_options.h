@@ -1,0 +1,72 @@
+// Options of the capture stage (relit-capture): inputs, audio sync, frame
+// selection, linearisation and output size. Defaults live here; a YAML file
+// (unknown keys are errors) and command-line flags go on top, then Check().
+// See docs/capture.md for the meaning of every option.
+#pragma once
+
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "core/options.h"
+
+namespace relit::capture {
+
+struct SyncOptions {
+  // Manual override: when set, t_view = t_light + offset_s and no audio is
+  // needed. Absent (manual = false) means audio cross-correlation.
+  bool manual = false;
+  double offset_s = 0.0;
+  int sample_rate_hz = 16000;        // both tracks are resampled to this rate
+  double max_offset_s = 10.0;        // search window: |offset| <= max_offset_s
+  double min_confidence = 2.0;       // main peak / best peak outside the exclusion zone
+  double peak_exclusion_s = 0.005;   // half-width around the main peak ignored for the 2nd peak
+
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+// Quality filters and subsampling, applied to phone V (and the geometry pass).
+struct SelectOptions {
+  int target_frames = 150;           // keep at most this many (0 = use target_fps)
+  double target_fps = 0.0;           // alternatively: at most this many per second
+  int blur_window_frames = 7;        // neighbours on each side for the relative blur score
+  double min_blur_ratio = 0.6;       // sharpness / median sharpness of the neighbours
+  double clip_level = 0.98;          // encoded luma at or above = clipped
+  double max_clipped_fraction = 0.15;  // a flash-lit white board clips a little
+  double dark_level = 0.02;          // encoded luma at or below = dark
+  double max_dark_fraction = 0.995;  // dark rooms are expected: only near-black frames go
+  double duplicate_max_diff = 0.0005;  // mean |luma difference| to the previous frame
+  int analysis_width_px = 480;       // frames are scored at this width (or smaller)
+
+  void Read(OptionsReader& reader);
+  void Check(const std::string& section) const;
+  nlohmann::json ToJson() const;
+};
+
+struct CaptureOptions {
+  std::string view;                  // phone V video (no flash): the camera
+  std::string light;                 // phone L video (flash on): the moving light
+  std::string geometry;              // optional geometry-pass video or folder of photos
+  std::string out;                   // output folder, WORKSPACE/capture
+
+  SyncOptions sync;
+  SelectOptions view_select;         // YAML "view"
+  SelectOptions geometry_select;     // YAML "geometry_select"
+  int light_frames_per_side = 2;     // phone L frames kept on each side of a kept V frame
+
+  // "auto" (sRGB for SDR video, refuse HDR), "srgb", "gamma2.2", "hlg", "pq".
+  std::string transfer = "auto";
+  int max_long_side_px = 0;          // 0 = keep the video resolution
+  std::string copy_format = "png";   // 8-bit copies: png | jpg
+  int jpeg_quality = 95;
+  bool allow_partial = false;        // keep the part of a damaged video before the first error
+  std::string log_level = "info";
+
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+}  // namespace relit::capture

@@ -1,0 +1,210 @@
+// End-to-end tests of relit-capture on small videos made with ffmpeg: audio
+// sync, variable frame rate, linearisation, rotation and every bad input.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "capture/capture.h"
+#include "capture/test_media.h"
+#include "capture/transfer.h"
+#include "capture/video_io.h"
+#include "core/color.h"
+#include "core/error.h"
+#include "core/image.h"
+
+namespace relit::capture {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::MakeRoomSound;
+using testing::MakeVideo;
+using testing::ReadCaptureJson;
+using testing::Shell;
+using testing::TempDir;
+using testing::TestOptions;
+
+// Runs the stage expecting a relit::Error containing every part, and checks
+// that nothing was written.
+void ExpectFailure(const CaptureOptions& options, const std::vector<std::string>& parts) {
+  try {
+    RunCaptureImpl(options);
+    ADD_FAILURE() << "expected an error containing '" << parts.front() << "'";
+  } catch (const Error& e) {
+    const std::string message = e.what();
+    for (const std::string& part : parts) {
+      EXPECT_NE(message.find(part), std::string::npos) << "'" << part << "' not in: " << message;
+    }
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  }
+  EXPECT_FALSE(fs::exists(options.out)) << "half-written output left at " << options.out;
+  for (const auto& entry : fs::directory_iterator(fs::path(options.out).parent_path())) {
+    EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos)
+        << "temporary left behind: " << entry.path();
+  }
+}
+
+constexpr int kOffsetSamples = 21922;  // 0.456708 s at 48 kHz
+
+// Test inputs, made on first use (ctest runs each test in its own process).
+class CaptureVideoTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { dir_ = new TempDir("video"); }
+  static void TearDownTestSuite() { delete dir_; }
+
+  // The path of a named test input, encoding it if needed.
+  static std::string In(const std::string& name) {
+    const std::string path = *dir_ / name;
+    if (fs::exists(path)) return path;
+    const std::string room = *dir_ / "room.wav";
+    if (!fs::exists(room)) MakeRoomSound(room, 10.0, 3);
+    // Phone V hears the room from 2 s on; phone L started kOffset later (or earlier).
+    if (name == "view.mp4") MakeVideo(path, 4.0, room, 2 * 48000);
+    if (name == "light.mp4") MakeVideo(path, 4.0, room, 2 * 48000 + kOffsetSamples);
+    if (name == "light_early.mp4") MakeVideo(path, 4.0, room, 2 * 48000 - kOffsetSamples);
+    if (name == "unrelated.mp4") {
+      MakeRoomSound(*dir_ / "other_room.wav", 10.0, 11);
+      MakeVideo(path, 4.0, *dir_ / "other_room.wav", 2 * 48000);
+    }
+    if (name == "silent.mp4") MakeVideo(path, 4.0, "", 0);
+    if (name == "moov_last.mp4") MakeVideo(path, 4.0, "", 0, /*faststart=*/false);
+    EXPECT_TRUE(fs::exists(path)) << name;
+    return path;
+  }
+
+  static TempDir* dir_;
+};
+TempDir* CaptureVideoTest::dir_ = nullptr;
+
+TEST_F(CaptureVideoTest, AudioSyncRecoversOffsetOfEitherSign) {
+  for (const auto& [light, sign] : {std::pair<std::string, int>{"light.mp4", 1}, {"light_early.mp4", -1}}) {
+    const std::string out = *dir_ / ("out_" + light);
+    const CaptureSummary summary = RunCaptureImpl(TestOptions(In("view.mp4"), In(light), out));
+    const double truth = sign * kOffsetSamples / 48000.0;
+    EXPECT_NEAR(summary.offset_s, truth, 0.5e-3) << light;
+    const nlohmann::json capture = ReadCaptureJson(out);
+    EXPECT_EQ(capture["sync"]["method"], "gcc-phat");
+    EXPECT_NEAR(capture["sync"]["offset_s"].get<double>(), truth, 0.5e-3);
+    EXPECT_GT(capture["sync"]["confidence"].get<double>(), 3.0);
+    // Phone L frames are on phone V's clock: own time + offset.
+    for (const auto& frame : capture["light_frames"]) {
+      EXPECT_NEAR(frame["time_s"].get<double>(),
+                  frame["source_time_s"].get<double>() + summary.offset_s, 1e-9);
+    }
+    // Each kept V frame lies between its first and last phone L frame.
+    for (const auto& frame : capture["view_frames"]) {
+      const auto& lights = frame["light_frames"];
+      ASSERT_GE(lights.size(), 2u);
+      const double t = frame["time_s"];
+      EXPECT_LE(capture["light_frames"][lights.front().get<int>()]["time_s"].get<double>(), t);
+      EXPECT_GE(capture["light_frames"][lights.back().get<int>()]["time_s"].get<double>(), t);
+      EXPECT_TRUE(fs::exists(out + "/" + frame["image"].get<std::string>()));
+      EXPECT_TRUE(fs::exists(out + "/" + frame["linear"].get<std::string>()));
+    }
+    EXPECT_TRUE(fs::exists(out + "/capture.log"));
+    EXPECT_TRUE(fs::exists(out + "/run.json"));
+  }
+}
+
+TEST_F(CaptureVideoTest, ManualOffsetOverridesAudio) {
+  CaptureOptions o = TestOptions(In("view.mp4"), In("silent.mp4"), *dir_ / "out_manual");
+  o.sync.manual = true;
+  o.sync.offset_s = 0.25;
+  const CaptureSummary summary = RunCaptureImpl(o);
+  EXPECT_EQ(summary.sync_method, "manual");
+  const nlohmann::json capture = ReadCaptureJson(o.out);
+  EXPECT_EQ(capture["sync"]["offset_s"].get<double>(), 0.25);
+  EXPECT_TRUE(capture["sync"]["confidence"].is_null());
+}
+
+TEST_F(CaptureVideoTest, RefusesUnrelatedRecordings) {
+  ExpectFailure(TestOptions(In("view.mp4"), In("unrelated.mp4"), *dir_ / "out_unrelated"),
+                {"confidence", "sync.min_confidence", "--offset-s"});
+}
+
+TEST_F(CaptureVideoTest, RefusesVideoWithoutAudioWhenAutoSyncing) {
+  ExpectFailure(TestOptions(In("view.mp4"), In("silent.mp4"), *dir_ / "out_silent"),
+                {"silent.mp4", "no audio track", "--offset-s"});
+}
+
+TEST_F(CaptureVideoTest, RefusesMissingFile) {
+  ExpectFailure(TestOptions(In("view.mp4"), *dir_ / "nowhere.mp4", *dir_ / "out_missing"),
+                {"nowhere.mp4", "no such file", "--light"});
+}
+
+TEST_F(CaptureVideoTest, RefusesFileThatIsNotAVideo) {
+  { std::ofstream(*dir_ / "notes.mp4") << "not a video\n"; }
+  ExpectFailure(TestOptions(*dir_ / "notes.mp4", In("light.mp4"), *dir_ / "out_notes"),
+                {"notes.mp4", "truncated or not a video", "--view"});
+}
+
+TEST_F(CaptureVideoTest, RefusesTruncatedFileWithoutIndex) {
+  const std::string cut = *dir_ / "moov_cut.mp4";
+  fs::copy_file(In("moov_last.mp4"), cut, fs::copy_options::overwrite_existing);
+  fs::resize_file(cut, fs::file_size(cut) * 6 / 10);
+  CaptureOptions o = TestOptions(cut, In("light.mp4"), *dir_ / "out_moov_cut");
+  o.sync.manual = true;
+  ExpectFailure(o, {"moov_cut.mp4", "truncated or not a video"});
+}
+
+TEST_F(CaptureVideoTest, TruncatedStreamNeedsAllowPartial) {
+  const std::string cut = *dir_ / "view_cut.mp4";
+  fs::copy_file(In("view.mp4"), cut, fs::copy_options::overwrite_existing);
+  fs::resize_file(cut, fs::file_size(cut) * 6 / 10);
+  CaptureOptions o = TestOptions(cut, In("light.mp4"), *dir_ / "out_cut");
+  o.sync.manual = true;
+  o.sync.offset_s = 0.0;
+  ExpectFailure(o, {"view_cut.mp4", "decode error at t =", "--allow-partial"});
+
+  o.allow_partial = true;
+  o.view_select.target_frames = 1000;
+  RunCaptureImpl(o);
+  const nlohmann::json capture = ReadCaptureJson(o.out);
+  const auto& error = capture["inputs"]["view"]["decode_error"];
+  ASSERT_TRUE(error.is_object());
+  const int before = error["frames_before"];
+  EXPECT_GT(before, 10);
+  EXPECT_LT(before, 120);
+  EXPECT_EQ(capture["inputs"]["view"]["frames_usable"].get<int>(), before);
+  for (const auto& frame : capture["view_frames"]) {
+    EXPECT_LT(frame["source_frame"].get<int>(), before);
+    EXPECT_LE(frame["time_s"].get<double>(), error["time_s"].get<double>());
+  }
+}
+
+TEST_F(CaptureVideoTest, RefusesVideosThatDoNotOverlap) {
+  CaptureOptions o = TestOptions(In("view.mp4"), In("light.mp4"), *dir_ / "out_apart");
+  o.sync.manual = true;
+  o.sync.offset_s = 30.0;
+  ExpectFailure(o, {"do not overlap", "--offset-s"});
+}
+
+TEST_F(CaptureVideoTest, RefusesWhenNoFrameIsLeft) {
+  const std::string black = *dir_ / "black.mp4";
+  Shell("ffmpeg -nostdin -v error -y -f lavfi -i color=c=black:size=160x120:rate=30:d=1 "
+        "-c:v libx264 -pix_fmt yuv420p " + black);
+  CaptureOptions o = TestOptions(black, In("light.mp4"), *dir_ / "out_black");
+  o.sync.manual = true;
+  ExpectFailure(o, {"no phone V frame left", "dark", "view_select"});
+}
+
+TEST_F(CaptureVideoTest, RefusesAbsurdOptions) {
+  CaptureOptions o = TestOptions(*dir_ / "view.mp4", *dir_ / "light.mp4", *dir_ / "out_absurd");
+  o.view_select.target_frames = -3;
+  ExpectFailure(o, {"target_frames"});
+  o = TestOptions(*dir_ / "view.mp4", *dir_ / "light.mp4", *dir_ / "out_absurd");
+  o.sync.max_offset_s = 0;
+  ExpectFailure(o, {"max_offset_s"});
+  o = TestOptions(*dir_ / "view.mp4", *dir_ / "light.mp4", *dir_ / "out_absurd");
+  o.transfer = "linear-ish";
+  ExpectFailure(o, {"--transfer"});
+  o = TestOptions(*dir_ / "view.mp4", *dir_ / "light.mp4", *dir_ / "out_absurd");
+  o.max_long_side_px = 3;
+  ExpectFailure(o, {"max_long_side_px"});
+}
+
+}  // namespace
+}  // namespace relit::capture

@@ -1,0 +1,102 @@
+// Video and audio decoding through the ffmpeg/ffprobe command-line tools.
+// Nothing is linked against libav*: frames travel as raw pixels through a
+// pipe, and per-frame presentation timestamps come from ffmpeg's showinfo
+// filter in the same decoding pipeline, so timestamps and pixels can never
+// disagree (frames are passed through, never duplicated or dropped, which
+// keeps variable-frame-rate video correct).
+//
+// Times are container presentation timestamps in seconds (ffmpeg -copyts),
+// the device's own clock for that recording.
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace relit::capture {
+
+struct VideoInfo {
+  std::string path;
+  std::string role;                   // e.g. "phone V video (--view)", for messages
+  std::string container, codec, pix_fmt;
+  std::string color_transfer, color_space, color_range, color_primaries;  // ffprobe names
+  int coded_width_px = 0, coded_height_px = 0;  // as stored in the stream
+  int width_px = 0, height_px = 0;    // as displayed, after the rotation
+  int rotation_deg = 0;               // clockwise display rotation (0, 90, 180, 270)
+  int bit_depth = 8;
+  double duration_s = 0;
+  int64_t header_frame_count = 0;     // from the container; 0 when unknown
+  bool has_audio = false;
+  int audio_sample_rate_hz = 0;
+};
+
+// Reads stream properties with ffprobe. Throws relit::Error naming the file
+// and the role when it is missing, unreadable, truncated or not a video.
+VideoInfo ProbeVideo(const std::string& path, const std::string& role);
+
+// The first decoding error of a pass, if any.
+struct DecodeIssue {
+  bool found = false;
+  int frames_before = 0;     // frames decoded before the error
+  double time_s = 0;         // presentation time of the last good frame (or 0)
+  std::string message;       // ffmpeg's message
+};
+
+struct AnalysisPass {
+  std::vector<double> times_s;  // per decoded frame, presentation order
+  DecodeIssue issue;
+};
+
+// Pass 1: decodes every frame as 8-bit grey (luma) at most `max_width_px`
+// wide, without rotation, calling on_frame(index, grey CV_8UC1) in order.
+AnalysisPass AnalyseVideo(const VideoInfo& info, int max_width_px,
+                          const std::function<void(int, const cv::Mat&)>& on_frame);
+
+// Pass 2: frames as 16-bit RGB (CV_16UC3, R,G,B order), full range, rotated
+// for display, decoded with the stream's YUV matrix and range.
+class FrameReader {
+ public:
+  explicit FrameReader(const VideoInfo& info);
+  ~FrameReader();
+  FrameReader(const FrameReader&) = delete;
+  FrameReader& operator=(const FrameReader&) = delete;
+
+  // Next frame in presentation order; false at the end of the stream.
+  bool Next(cv::Mat* rgb16);
+  // Index of the frame returned by the last Next().
+  int index() const { return index_; }
+  // Stops ffmpeg (frames not read yet are discarded).
+  void Close();
+
+ private:
+  VideoInfo info_;
+  std::string log_path_;
+  FILE* pipe_ = nullptr;
+  int index_ = -1;
+};
+
+struct AudioTrack {
+  std::vector<float> samples;  // mono
+  int sample_rate_hz = 0;
+  double start_s = 0;          // presentation time of samples[0]
+};
+
+// Decodes the first audio stream as mono float at `sample_rate_hz`.
+AudioTrack DecodeAudio(const VideoInfo& info, int sample_rate_hz);
+
+// Size and a content hash (FNV-1a 64 over every byte, hex) of a file, so a
+// later run can tell whether an input changed.
+struct FileFingerprint {
+  uint64_t size_bytes = 0;
+  std::string fnv1a64;
+};
+FileFingerprint Fingerprint(const std::string& path);
+
+// Single-quotes a string for /bin/sh.
+std::string ShellQuote(const std::string& text);
+
+}  // namespace relit::capture

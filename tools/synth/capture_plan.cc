@@ -1,0 +1,215 @@
+#include "tools/synth/capture_plan.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "core/error.h"
+#include "core/render/sampling.h"
+#include "tools/synth/audio.h"
+
+namespace relit::synth {
+
+namespace {
+
+constexpr double kDegToRad = M_PI / 180.0;
+
+enum Stream : uint64_t {
+  kViewPath = 1, kLightPath, kGeometryPath, kOffset, kClaps, kEval, kLightDirection, kSun,
+};
+
+std::string Numbered(const std::string& prefix, int i) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%s_%02d", prefix.c_str(), i);
+  return buffer;
+}
+
+HandheldPathParams PathParams(const SynthOptions& o, const SynthScene& scene, double turns,
+                              double duration_s, double speed) {
+  HandheldPathParams p;
+  p.target_world = scene.target_world;
+  p.distance_min_m = o.distance_min_m;
+  p.distance_max_m = o.distance_max_m;
+  p.elevation_min_rad = o.elevation_min_deg * kDegToRad;
+  p.elevation_max_rad = o.elevation_max_deg * kDegToRad;
+  p.azimuth_rate_rev_per_s = turns / duration_s;
+  p.drift_period_s = duration_s / speed;
+  p.roll_max_rad = o.roll_max_deg * kDegToRad;
+  p.jitter_m = o.jitter_m;
+  p.jitter_rad = o.jitter_deg * kDegToRad;
+  p.aim_error_m = o.aim_error_m;
+  return p;
+}
+
+VideoPlan SampleVideo(const std::string& name, const std::string& phone, const std::string& lighting,
+                      const Intrinsics& intrinsics, const HandheldPath& path,
+                      const HandheldPath* flash_path, const Eigen::Vector3d& flash_offset_cam_m,
+                      double start_common_s, int frame_count, int fps) {
+  VideoPlan video;
+  video.name = name;
+  video.phone = phone;
+  video.lighting = lighting;
+  video.intrinsics = intrinsics;
+  video.start_common_s = start_common_s;
+  for (int i = 0; i < frame_count; ++i) {
+    FramePlan frame;
+    frame.index = i;
+    frame.t_own_s = static_cast<double>(i) / fps;
+    frame.t_common_s = start_common_s + frame.t_own_s;
+    frame.cam_from_world = path.CamFromWorld(frame.t_common_s);
+    if (flash_path != nullptr) {
+      frame.light_position_world =
+          flash_path->CamFromWorld(frame.t_common_s).Inverse() * flash_offset_cam_m;
+    }
+    video.frames.push_back(frame);
+  }
+  return video;
+}
+
+}  // namespace
+
+uint64_t SubSeed(uint64_t seed, uint64_t stream) {
+  return render::MixBits(render::MixBits(seed + 0x51ed) ^ (stream * 0x9e3779b97f4a7c15ULL));
+}
+
+Intrinsics PhoneIntrinsics(int width_px, int height_px, double hfov_deg,
+                           const std::vector<double>& principal_offset,
+                           const std::vector<double>& distortion) {
+  Intrinsics k = Intrinsics::FromFov(width_px, height_px, hfov_deg * kDegToRad);
+  k.cx += principal_offset.at(0) * width_px;
+  k.cy += principal_offset.at(1) * height_px;
+  k.distortion.k1 = distortion.at(0);
+  k.distortion.k2 = distortion.at(1);
+  k.distortion.p1 = distortion.at(2);
+  k.distortion.p2 = distortion.at(3);
+  k.distortion.k3 = distortion.at(4);
+  k.Check();
+  return k;
+}
+
+CapturePlan MakeCapturePlan(const SynthOptions& o, const SynthScene& scene) {
+  o.Check();
+  CapturePlan plan;
+  plan.view_intrinsics = PhoneIntrinsics(o.width_px, o.height_px, o.view_hfov_deg,
+                                         o.view_principal_offset, o.view_distortion);
+  plan.light_intrinsics = PhoneIntrinsics(o.width_px, o.height_px, o.light_hfov_deg,
+                                          o.light_principal_offset, o.light_distortion);
+  plan.eval_intrinsics = plan.view_intrinsics.WithoutDistortion();
+  plan.flash_offset_cam_m = Eigen::Vector3d(o.flash_offset_cam_m[0], o.flash_offset_cam_m[1],
+                                            o.flash_offset_cam_m[2]);
+
+  // Offset: magnitude uniform in [min, max], random sign; microsecond grid.
+  uint64_t state = SubSeed(o.seed, kOffset);
+  const double magnitude =
+      o.audio_offset_min_s + (o.audio_offset_max_s - o.audio_offset_min_s) * UniformFromState(&state);
+  const double sign = UniformFromState(&state) < 0.5 ? -1.0 : 1.0;
+  plan.light_start_offset_s = std::round(sign * magnitude * 1e6) / 1e6;
+
+  // Claps where both phones are recording, away from the overlap's ends.
+  const double duration = o.duration_s();
+  const double overlap_begin = std::max(0.0, plan.light_start_offset_s);
+  const double overlap_end = std::min(duration, plan.light_start_offset_s + duration);
+  const double margin = 0.1 * (overlap_end - overlap_begin);
+  plan.clap_times_common_s = PickClapTimes(overlap_begin + margin, overlap_end - margin, o.clap_count,
+                                           0.05, SubSeed(o.seed, kClaps));
+
+  // Paths. Phone L circles light_speed_ratio times faster, in a random direction.
+  uint64_t direction_state = SubSeed(o.seed, kLightDirection);
+  const double light_sign = UniformFromState(&direction_state) < 0.5 ? -1.0 : 1.0;
+  plan.view_path = PathParams(o, scene, o.view_turns, duration, 1.0);
+  plan.light_path = PathParams(o, scene, light_sign * o.light_speed_ratio * o.view_turns, duration,
+                               std::max(1.0, o.light_speed_ratio));
+  plan.geometry_path = PathParams(o, scene, std::max(1.0, std::abs(o.view_turns)), duration, 1.0);
+  const HandheldPath view_path(plan.view_path, SubSeed(o.seed, kViewPath));
+  const HandheldPath light_path(plan.light_path, SubSeed(o.seed, kLightPath));
+  plan.view = SampleVideo("view", "view", "flash", plan.view_intrinsics, view_path, &light_path,
+                          plan.flash_offset_cam_m, 0.0, o.frames_per_video, o.fps);
+  plan.light = SampleVideo("light", "light", "flash", plan.light_intrinsics, light_path, &light_path,
+                           plan.flash_offset_cam_m, plan.light_start_offset_s, o.frames_per_video,
+                           o.fps);
+  if (o.geometry_pass) {
+    const HandheldPath geometry_path(plan.geometry_path, SubSeed(o.seed, kGeometryPath));
+    plan.geometry = SampleVideo("geometry", "view", "environment", plan.view_intrinsics,
+                                geometry_path, nullptr, Eigen::Vector3d::Zero(), 0.0,
+                                o.frames_per_video, o.fps);
+  }
+
+  // Held-out evaluation views: away from every phone-V view direction.
+  std::vector<Eigen::Vector3d> training_directions;
+  for (const FramePlan& f : plan.view.frames) {
+    training_directions.push_back(
+        (f.cam_from_world.Inverse().translation - scene.target_world).normalized());
+  }
+  uint64_t eval_state = SubSeed(o.seed, kEval);
+  const double min_angle_rad = o.eval_min_angle_deg * kDegToRad;
+  for (int v = 0; v < o.eval_views; ++v) {
+    bool placed = false;
+    for (int attempt = 0; attempt < 20000 && !placed; ++attempt) {
+      const double azimuth = 2 * M_PI * UniformFromState(&eval_state);
+      const double elevation =
+          (o.elevation_min_deg + (o.elevation_max_deg - o.elevation_min_deg) * UniformFromState(&eval_state)) *
+          kDegToRad;
+      const double distance = o.distance_min_m + (o.distance_max_m - o.distance_min_m) *
+                                                     (0.25 + 0.5 * UniformFromState(&eval_state));
+      const Eigen::Vector3d direction(std::cos(elevation) * std::cos(azimuth),
+                                      std::cos(elevation) * std::sin(azimuth), std::sin(elevation));
+      double nearest = M_PI;
+      for (const Eigen::Vector3d& t : training_directions) {
+        nearest = std::min(nearest, std::acos(std::clamp(direction.dot(t), -1.0, 1.0)));
+      }
+      for (const EvalView& other : plan.eval_views) {  // spread the held-out views too
+        const Eigen::Vector3d d = (other.cam_from_world.Inverse().translation - scene.target_world).normalized();
+        if (std::acos(std::clamp(direction.dot(d), -1.0, 1.0)) < min_angle_rad) nearest = -1;
+      }
+      if (nearest < min_angle_rad) continue;
+      EvalView view;
+      view.name = Numbered("view", v);
+      view.cam_from_world = LookAt(scene.target_world + distance * direction, scene.target_world,
+                                   Eigen::Vector3d::UnitZ());
+      view.min_angle_to_training_rad = nearest;
+      plan.eval_views.push_back(view);
+      placed = true;
+    }
+    RELIT_REQUIRE(placed, "cannot place held-out evaluation view ", v, " at least ",
+                  o.eval_min_angle_deg, " deg away from the phone-V path: lower eval_min_angle_deg");
+  }
+
+  // Evaluation lights.
+  for (int i = 0; i < o.eval_point_lights; ++i) {
+    const double azimuth = 2 * M_PI * UniformFromState(&eval_state);
+    const double elevation = (20 + 55 * UniformFromState(&eval_state)) * kDegToRad;
+    const double distance = 0.4 + 0.3 * UniformFromState(&eval_state);
+    EvalLight light;
+    light.name = Numbered("point", i);
+    light.type = "point";
+    light.position_world = scene.target_world + distance * Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
+                                                                           std::cos(elevation) * std::sin(azimuth),
+                                                                           std::sin(elevation));
+    light.rgb = Eigen::Vector3d::Constant(o.flash_intensity_w_per_sr);
+    plan.eval_lights.push_back(light);
+  }
+  for (int i = 0; i < o.eval_directional_lights; ++i) {
+    const double azimuth = 2 * M_PI * UniformFromState(&eval_state);
+    const double elevation = (25 + 45 * UniformFromState(&eval_state)) * kDegToRad;
+    EvalLight light;
+    light.name = Numbered("directional", i);
+    light.type = "directional";
+    light.direction_to_light = Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
+                                               std::cos(elevation) * std::sin(azimuth), std::sin(elevation));
+    light.rgb = Eigen::Vector3d(2.0, 1.9, 1.75);
+    plan.eval_lights.push_back(light);
+  }
+  uint64_t sun_state = SubSeed(o.seed, kSun);
+  plan.sun_elevation_rad = (30 + 25 * UniformFromState(&sun_state)) * kDegToRad;
+  plan.sun_azimuth_rad = 2 * M_PI * UniformFromState(&sun_state);
+  for (const char* map : {"sky", "studio"}) {
+    EvalLight light;
+    light.name = std::string("env_") + map;
+    light.type = "environment";
+    light.envmap = map;
+    plan.eval_lights.push_back(light);
+  }
+  return plan;
+}
+
+}  // namespace relit::synth

@@ -1,0 +1,79 @@
+// Everything relit-synth decides before rendering: phone intrinsics, the
+// hand-held paths sampled at every frame, the flash position, the time offset
+// between the two recordings, the clap times and the evaluation set. Fully
+// determined by (options, seed); truth.json is written from it.
+//
+// Time convention (also in truth.json): t_common = t_view = t_light +
+// light_start_offset_s. Frame i of a phone's video is at time i / fps on that
+// phone's own clock, so phone V's frame i is at t_common = i / fps and phone
+// L's frame j at t_common = j / fps + light_start_offset_s. A positive
+// offset means phone L started recording later than phone V.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/camera.h"
+#include "tools/synth/scene.h"
+#include "tools/synth/synth_options.h"
+#include "tools/synth/trajectory.h"
+
+namespace relit::synth {
+
+struct FramePlan {
+  int index = 0;
+  double t_own_s = 0;      // on the recording phone's clock
+  double t_common_s = 0;   // on the common (= phone V) clock
+  Rigid3 cam_from_world;
+  Eigen::Vector3d light_position_world = Eigen::Vector3d::Zero();  // flash (when lit by it)
+};
+
+struct VideoPlan {
+  std::string name;        // "view", "light", "geometry"
+  std::string phone;       // "view" or "light"
+  std::string lighting;    // "flash" or "environment"
+  Intrinsics intrinsics;
+  double start_common_s = 0;  // common time of frame 0 (geometry: its own session)
+  std::vector<FramePlan> frames;
+};
+
+struct EvalLight {
+  std::string name;        // e.g. "point_00", "directional_01", "env_sky"
+  std::string type;        // "point", "directional", "environment"
+  Eigen::Vector3d position_world = Eigen::Vector3d::Zero();     // point
+  Eigen::Vector3d direction_to_light = Eigen::Vector3d::UnitZ(); // directional
+  Eigen::Vector3d rgb = Eigen::Vector3d::Ones();  // W/sr (point), irradiance (directional), scale (env)
+  std::string envmap;      // "sky" / "studio" for environment lights
+};
+
+struct EvalView {
+  std::string name;        // "view_00", ...
+  Rigid3 cam_from_world;
+  double min_angle_to_training_rad = 0;  // to the nearest phone-V view direction
+};
+
+struct CapturePlan {
+  Intrinsics view_intrinsics, light_intrinsics;
+  Intrinsics eval_intrinsics;  // undistorted pinhole
+  Eigen::Vector3d flash_offset_cam_m = Eigen::Vector3d::Zero();
+  double light_start_offset_s = 0;
+  std::vector<double> clap_times_common_s;
+  double sun_elevation_rad = 0, sun_azimuth_rad = 0;
+  VideoPlan view, light, geometry;  // geometry.frames empty unless requested
+  std::vector<EvalView> eval_views;
+  std::vector<EvalLight> eval_lights;
+  HandheldPathParams view_path, light_path, geometry_path;
+};
+
+// Deterministic sub-seeds: one stream per purpose.
+uint64_t SubSeed(uint64_t seed, uint64_t stream);
+
+Intrinsics PhoneIntrinsics(int width_px, int height_px, double hfov_deg,
+                           const std::vector<double>& principal_offset,
+                           const std::vector<double>& distortion);
+
+CapturePlan MakeCapturePlan(const SynthOptions& options, const SynthScene& scene);
+
+}  // namespace relit::synth

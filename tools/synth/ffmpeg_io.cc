@@ -1,0 +1,217 @@
+#include "tools/synth/ffmpeg_io.h"
+
+#include <csignal>
+#include <cstring>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+
+#include "core/error.h"
+
+namespace relit::synth {
+
+namespace {
+
+std::string ReadTail(const std::string& path, size_t max_chars = 600) {
+  std::ifstream in(path);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  std::string text = buffer.str();
+  while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
+  if (text.size() > max_chars) text = "..." + text.substr(text.size() - max_chars);
+  for (char& c : text) {
+    if (c == '\n') c = ' ';
+  }
+  return text;
+}
+
+std::string ExitDescription(int status) {
+  if (status == -1) return "could not be started";
+  if (WIFEXITED(status)) {
+    const int code = WEXITSTATUS(status);
+    if (code == 127) return "not found (install ffmpeg: tools/install-deps)";
+    return "exited with status " + std::to_string(code);
+  }
+  if (WIFSIGNALED(status)) return "was killed by signal " + std::to_string(WTERMSIG(status));
+  return "failed";
+}
+
+// Runs a command reading its whole stdout; throws with stderr on failure.
+std::string RunCapture(const std::string& command, const std::string& what) {
+  const std::string log = (std::filesystem::temp_directory_path() /
+                           ("relit-ffmpeg-" + std::to_string(::getpid()) + ".log"))
+                              .string();
+  FILE* pipe = ::popen((command + " 2>" + ShellQuote(log)).c_str(), "r");
+  RELIT_REQUIRE(pipe != nullptr, "cannot start ffmpeg/ffprobe for ", what);
+  std::string output;
+  char buffer[1 << 16];
+  size_t n;
+  while ((n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0) output.append(buffer, n);
+  const int status = ::pclose(pipe);
+  const std::string message = ReadTail(log);
+  std::error_code ignored;
+  std::filesystem::remove(log, ignored);
+  RELIT_REQUIRE(status == 0, what, ": ", command.substr(0, command.find(' ')), " ",
+                ExitDescription(status), ": ", message);
+  return output;
+}
+
+}  // namespace
+
+std::string ShellQuote(const std::string& text) {
+  std::string quoted = "'";
+  for (char c : text) {
+    if (c == '\'') quoted += "'\\''";
+    else quoted += c;
+  }
+  return quoted + "'";
+}
+
+void VideoEncodeParams::Check() const {
+  RELIT_REQUIRE(width_px > 0 && height_px > 0 && width_px % 2 == 0 && height_px % 2 == 0,
+                "video size must be positive and even (yuv420p), got ", width_px, "x", height_px);
+  RELIT_REQUIRE(fps > 0 && fps <= 240, "video fps must be in (0, 240], got ", fps);
+  RELIT_REQUIRE(crf >= 0 && crf <= 51, "x264 crf must be in [0, 51], got ", crf);
+  RELIT_REQUIRE(display_rotation_deg == 0 || display_rotation_deg == 90 ||
+                    display_rotation_deg == 180 || display_rotation_deg == 270,
+                "display rotation must be 0, 90, 180 or 270 degrees, got ", display_rotation_deg);
+}
+
+VideoEncoder::VideoEncoder(const std::string& output_mp4, const VideoEncodeParams& params)
+    : output_(output_mp4), log_path_(output_mp4 + ".ffmpeg.log"), params_(params) {
+  params_.Check();
+  // A dying ffmpeg must surface as an error from Finish(), not kill us.
+  std::signal(SIGPIPE, SIG_IGN);
+  std::ostringstream cmd;
+  cmd << "ffmpeg -nostdin -y -hide_banner -loglevel error"
+      << " -f rawvideo -pix_fmt rgb24 -s " << params_.width_px << "x" << params_.height_px
+      << " -framerate " << params_.fps << " -i -";
+  if (!params_.audio_wav.empty()) cmd << " -i " << ShellQuote(params_.audio_wav);
+  cmd << " -map 0:v:0";
+  if (!params_.audio_wav.empty()) cmd << " -map 1:a:0";
+  // RGB -> BT.709 limited-range YUV, tagged as such with the sRGB transfer.
+  cmd << " -vf scale=out_color_matrix=bt709:out_range=tv"
+      << " -c:v libx264 -preset " << params_.x264_preset << " -crf " << params_.crf
+      << " -pix_fmt yuv420p -r " << params_.fps
+      << " -color_primaries bt709 -color_trc iec61966-2-1 -colorspace bt709 -color_range tv";
+  if (!params_.audio_wav.empty()) cmd << " -c:a aac -b:a 192k -ar 48000";
+  // ffmpeg 5.1 drops "rotate" when encoding; Finish() adds it by remuxing.
+  encoded_ = params_.display_rotation_deg != 0 ? output_ + ".unrotated.mp4" : output_;
+  cmd << " -movflags +faststart -f mp4 " << ShellQuote(encoded_) << " 2>" << ShellQuote(log_path_);
+  pipe_ = ::popen(cmd.str().c_str(), "w");
+  RELIT_REQUIRE(pipe_ != nullptr, "cannot start ffmpeg to write ", output_);
+}
+
+VideoEncoder::~VideoEncoder() {
+  if (pipe_ != nullptr) {
+    ::pclose(pipe_);
+    std::error_code ignored;
+    std::filesystem::remove(log_path_, ignored);
+  }
+}
+
+void VideoEncoder::AddFrame(const std::vector<uint8_t>& rgb) {
+  RELIT_CHECK(pipe_ != nullptr);
+  RELIT_CHECK(rgb.size() == static_cast<size_t>(params_.width_px) * params_.height_px * 3);
+  if (std::fwrite(rgb.data(), 1, rgb.size(), pipe_) != rgb.size()) {
+    const int status = ::pclose(pipe_);
+    pipe_ = nullptr;
+    Fail("writing ", output_, ": ffmpeg ", ExitDescription(status), ": ", ReadTail(log_path_));
+  }
+  ++frames_;
+}
+
+void VideoEncoder::Finish() {
+  RELIT_CHECK(pipe_ != nullptr);
+  const int status = ::pclose(pipe_);
+  pipe_ = nullptr;
+  const std::string message = ReadTail(log_path_);
+  std::error_code ignored;
+  std::filesystem::remove(log_path_, ignored);
+  RELIT_REQUIRE(status == 0, "encoding ", output_, ": ffmpeg ", ExitDescription(status), ": ",
+                message);
+  if (encoded_ != output_) {
+    RunCapture("ffmpeg -nostdin -y -v error -i " + ShellQuote(encoded_) +
+                   " -map 0 -c copy -metadata:s:v:0 rotate=" +
+                   std::to_string(params_.display_rotation_deg) + " -movflags +faststart -f mp4 " +
+                   ShellQuote(output_),
+               "adding rotation metadata to " + output_);
+    std::filesystem::remove(encoded_);
+  }
+}
+
+MediaInfo ProbeMedia(const std::string& path) {
+  RELIT_REQUIRE(std::filesystem::exists(path), "no such video file: ", path);
+  const std::string text = RunCapture(
+      "ffprobe -v error -count_frames -print_format json -show_streams " + ShellQuote(path),
+      "probing " + path);
+  const nlohmann::json probe = nlohmann::json::parse(text);
+  MediaInfo info;
+  for (const auto& stream : probe.at("streams")) {
+    const std::string type = stream.value("codec_type", "");
+    if (type == "video" && info.width_px == 0) {
+      info.width_px = stream.value("width", 0);
+      info.height_px = stream.value("height", 0);
+      info.video_codec = stream.value("codec_name", "");
+      info.pix_fmt = stream.value("pix_fmt", "");
+      info.color_transfer = stream.value("color_transfer", "");
+      info.frame_count = std::stoi(stream.value("nb_read_frames", std::string("0")));
+      const std::string rate = stream.value("r_frame_rate", std::string("0/1"));
+      const size_t slash = rate.find('/');
+      info.fps = std::stod(rate.substr(0, slash)) / std::stod(rate.substr(slash + 1));
+      if (stream.contains("tags") && stream["tags"].contains("rotate")) {
+        info.rotation_deg = std::stoi(stream["tags"]["rotate"].get<std::string>());
+      } else if (stream.contains("side_data_list")) {
+        for (const auto& side : stream["side_data_list"]) {
+          // ffprobe 5.1 reports the display matrix in the "rotate" tag's sense.
+          if (side.contains("rotation")) {
+            info.rotation_deg = (side["rotation"].get<int>() % 360 + 360) % 360;
+          }
+        }
+      }
+    } else if (type == "audio" && info.audio_sample_rate_hz == 0) {
+      info.audio_sample_rate_hz = std::stoi(stream.value("sample_rate", std::string("0")));
+    }
+  }
+  RELIT_REQUIRE(info.width_px > 0, path, " has no video stream");
+  return info;
+}
+
+DecodedVideo DecodeVideo(const std::string& path, bool grey) {
+  const MediaInfo info = ProbeMedia(path);
+  DecodedVideo video;
+  video.width_px = info.width_px;
+  video.height_px = info.height_px;
+  video.channels = grey ? 1 : 3;
+  const std::string bytes = RunCapture(
+      "ffmpeg -nostdin -v error -noautorotate -i " + ShellQuote(path) +
+          " -map 0:v:0 -vf scale=in_color_matrix=bt709:in_range=tv:out_range=pc -f rawvideo -pix_fmt " +
+          (grey ? "gray" : "rgb24") + " -",
+      "decoding " + path);
+  const size_t frame_bytes = static_cast<size_t>(video.width_px) * video.height_px * video.channels;
+  RELIT_REQUIRE(bytes.size() % frame_bytes == 0, "decoding ", path, ": got ", bytes.size(),
+                " bytes, not a whole number of ", video.width_px, "x", video.height_px, " frames");
+  for (size_t offset = 0; offset < bytes.size(); offset += frame_bytes) {
+    video.frames.emplace_back(bytes.begin() + offset, bytes.begin() + offset + frame_bytes);
+  }
+  return video;
+}
+
+std::vector<float> DecodeAudio(const std::string& path, int sample_rate_hz) {
+  RELIT_REQUIRE(std::filesystem::exists(path), "no such media file: ", path);
+  const std::string bytes =
+      RunCapture("ffmpeg -nostdin -v error -i " + ShellQuote(path) + " -map 0:a:0 -ac 1 -ar " +
+                     std::to_string(sample_rate_hz) + " -f f32le -",
+                 "decoding the audio of " + path);
+  std::vector<float> samples(bytes.size() / sizeof(float));
+  std::memcpy(samples.data(), bytes.data(), samples.size() * sizeof(float));
+  return samples;
+}
+
+}  // namespace relit::synth

@@ -1,0 +1,278 @@
+#include "tools/synth/synth.h"
+
+#include <chrono>
+#include <filesystem>
+
+#include <CLI/CLI.hpp>
+
+#include "core/atomic_output.h"
+#include "core/error.h"
+#include "core/json_file.h"
+#include "core/log.h"
+#include "core/progress.h"
+#include "core/render/path_tracer.h"
+#include "core/run_record.h"
+#include "tools/synth/audio.h"
+#include "tools/synth/capture_plan.h"
+#include "tools/synth/envmaps.h"
+#include "tools/synth/ffmpeg_io.h"
+#include "tools/synth/scene.h"
+#include "tools/synth/sensor.h"
+#include "tools/synth/truth.h"
+
+namespace relit::synth {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+enum RenderStream : uint64_t { kRoomSound = 20, kGeometryRoom, kMic, kRender = 1000 };
+
+render::Vec3f F(const Eigen::Vector3d& v) { return v.cast<float>(); }
+
+Image AlphaChannel(const render::RenderResult& result) {
+  Image alpha = result.alpha.SelectChannels(std::vector<int>{0});
+  alpha.set_channel_names({"A"});
+  return alpha;
+}
+
+// Records the room sound of every video into WAV files under truth/audio.
+void WriteAudio(const SynthOptions& o, const CapturePlan& plan, const fs::path& root) {
+  const RoomSoundParams params;
+  const double duration = o.duration_s();
+  const int64_t samples = static_cast<int64_t>(o.frames_per_video) * params.sample_rate_hz / o.fps;
+  const double begin = std::min(0.0, plan.light_start_offset_s) - 0.01;
+  const double end = std::max(duration, plan.light_start_offset_s + duration) + 0.01;
+  const RoomSound room(params, begin, end, plan.clap_times_common_s, SubSeed(o.seed, kRoomSound));
+  fs::create_directories(root / "truth/audio");
+  WriteWav((root / "truth/audio/view.wav").string(),
+           room.Record(0.0, samples, 1.0, SubSeed(o.seed, kMic)), params.sample_rate_hz);
+  WriteWav((root / "truth/audio/light.wav").string(),
+           room.Record(plan.light_start_offset_s, samples, 0.8, SubSeed(o.seed, kMic + 1)),
+           params.sample_rate_hz);
+  if (!plan.geometry.frames.empty()) {
+    // A separate session: its own room sound and claps.
+    const RoomSound other(params, -0.01, duration + 0.01,
+                          PickClapTimes(0.1 * duration, 0.9 * duration, o.clap_count, 0.05,
+                                        SubSeed(o.seed, kGeometryRoom)),
+                          SubSeed(o.seed, kGeometryRoom));
+    WriteWav((root / "truth/audio/geometry.wav").string(),
+             other.Record(0.0, samples, 1.0, SubSeed(o.seed, kMic + 2)), params.sample_rate_hz);
+  }
+}
+
+render::RenderOptions FrameRenderOptions(int spp, int max_depth, uint64_t seed,
+                                         const std::vector<int>& alpha_ids) {
+  render::RenderOptions options;
+  options.samples_per_pixel = spp;
+  options.max_depth = max_depth;
+  options.seed = seed;
+  options.alpha_object_ids = alpha_ids;
+  options.environment_visible = true;
+  return options;
+}
+
+void RenderVideo(const SynthOptions& o, const VideoPlan& video, int video_index,
+                 const SynthScene& synth_scene, render::Scene* scene,
+                 const render::EnvironmentLight& environment, const fs::path& root, bool write_alpha,
+                 Progress* progress) {
+  VideoEncodeParams encode;
+  encode.width_px = o.width_px;
+  encode.height_px = o.height_px;
+  encode.fps = o.fps;
+  encode.crf = o.crf;
+  encode.display_rotation_deg = o.display_rotation_deg;
+  encode.audio_wav = (root / ("truth/audio/" + video.name + ".wav")).string();
+  VideoEncoder encoder((root / (video.name + ".mp4")).string(), encode);
+  SensorParams sensor;
+  sensor.exposure = o.exposure;
+  sensor.full_well_e = o.full_well_e;
+  sensor.read_noise_e = o.read_noise_e;
+  const std::vector<int> alpha_ids = synth_scene.ForegroundIds();
+  for (const FramePlan& frame : video.frames) {
+    scene->ClearLights();
+    if (video.lighting == "flash") {
+      render::PointLight flash;
+      flash.position = F(frame.light_position_world);
+      flash.intensity = render::Rgb::Constant(static_cast<float>(o.flash_intensity_w_per_sr));
+      scene->AddLight(flash);
+    } else {
+      scene->SetEnvironment(environment);
+    }
+    const uint64_t stream = kRender + static_cast<uint64_t>(video_index) * 1000000 + frame.index;
+    const render::RenderResult result =
+        render::RenderImage(*scene, Camera(video.intrinsics, frame.cam_from_world),
+                            FrameRenderOptions(o.samples_per_pixel, o.max_depth,
+                                               SubSeed(o.seed, stream), alpha_ids));
+    encoder.AddFrame(SensorCapture(result.radiance, sensor, SubSeed(o.seed, stream), 1));
+    if (write_alpha) {
+      WriteImage((root / AlphaPath(video.name, frame.index)).string(), AlphaChannel(result),
+                 PixelStorage::kHalf);
+    }
+    progress->Advance();
+  }
+  encoder.Finish();
+}
+
+int RenderEvalSet(const SynthOptions& o, const CapturePlan& plan, const SynthScene& synth_scene,
+                  render::Scene* scene, const fs::path& root, Progress* progress) {
+  const Image sky = MakeSkyMap(o.envmap_width_px, plan.sun_elevation_rad, plan.sun_azimuth_rad);
+  const Image studio = MakeStudioMap(o.envmap_width_px);
+  fs::create_directories(root / "eval/envmaps");
+  WriteImage((root / EnvmapPath("sky")).string(), sky, PixelStorage::kFloat);
+  WriteImage((root / EnvmapPath("studio")).string(), studio, PixelStorage::kFloat);
+  const render::EnvironmentLight sky_light(sky), studio_light(studio);
+  const std::vector<int> alpha_ids = synth_scene.ForegroundIds();
+  int images = 0;
+  for (size_t v = 0; v < plan.eval_views.size(); ++v) {
+    const EvalView& view = plan.eval_views[v];
+    fs::create_directories(root / "eval" / view.name);
+    const Camera camera(plan.eval_intrinsics, view.cam_from_world);
+    for (size_t l = 0; l < plan.eval_lights.size(); ++l) {
+      const EvalLight& light = plan.eval_lights[l];
+      scene->ClearLights();
+      if (light.type == "point") {
+        scene->AddLight(render::PointLight{F(light.position_world), F(light.rgb).array()});
+      } else if (light.type == "directional") {
+        scene->AddLight(render::DirectionalLight{F(light.direction_to_light), F(light.rgb).array()});
+      } else {
+        scene->SetEnvironment(light.envmap == "sky" ? sky_light : studio_light);
+      }
+      const uint64_t stream = kRender + 9000000 + v * 1000 + l;
+      const render::RenderResult result = render::RenderImage(
+          *scene, camera,
+          FrameRenderOptions(o.eval_samples_per_pixel, o.max_depth, SubSeed(o.seed, stream), alpha_ids));
+      WriteImage((root / EvalImagePath(view.name, light.name)).string(), result.radiance,
+                 PixelStorage::kHalf);
+      if (l == 0) {
+        WriteImage((root / EvalAlphaPath(view.name)).string(), AlphaChannel(result),
+                   PixelStorage::kHalf);
+      }
+      ++images;
+      progress->Advance();
+    }
+  }
+  return images;
+}
+
+}  // namespace
+
+SynthSummary RunSynthImpl(const SynthOptions& options) {
+  options.Check();
+  const auto start = std::chrono::steady_clock::now();
+  RunRecord record("relit-synth");
+  record.SetOptions(options.ToJson());
+  AtomicDir out(options.out);
+  const fs::path root = out.path();
+
+  SynthScene synth_scene;
+  CapturePlan plan;
+  {
+    auto timer = record.Time("plan");
+    const std::string assets = options.assets_dir.empty() ? DefaultAssetsDir() : options.assets_dir;
+    synth_scene = BuildScene(options.preset, options.board, assets,
+                             CustomMesh{options.mesh_path, options.mesh_height_m, options.mesh_y_up});
+    plan = MakeCapturePlan(options, synth_scene);
+    WriteSceneTruth(synth_scene, root.string());
+    WriteAudio(options, plan, root);
+  }
+  spdlog::info("relit-synth: preset {} size {} seed {}: {}x{} px, {} frames per video, "
+               "light_start_offset_s {:+.6f}",
+               options.preset, options.size, options.seed, options.width_px, options.height_px,
+               options.frames_per_video, plan.light_start_offset_s);
+
+  SynthSummary summary;
+  summary.light_start_offset_s = plan.light_start_offset_s;
+  if (!options.truth_only) {
+    render::Scene scene;
+    synth_scene.AddTo(&scene);
+    scene.Commit();
+    std::vector<const VideoPlan*> videos = {&plan.view, &plan.light};
+    render::EnvironmentLight room;
+    if (!plan.geometry.frames.empty()) {
+      videos.push_back(&plan.geometry);
+      const Image room_map = MakeSoftRoomMap(256);
+      WriteImage((root / kGeometryEnvmapPath).string(), room_map, PixelStorage::kFloat);
+      room = render::EnvironmentLight(room_map, static_cast<float>(options.geometry_ambient_scale));
+    }
+    int total = static_cast<int>(plan.eval_views.size() * plan.eval_lights.size());
+    for (const VideoPlan* video : videos) total += static_cast<int>(video->frames.size());
+    Progress progress("render", total);
+    for (size_t i = 0; i < videos.size(); ++i) {
+      auto timer = record.Time("render_" + videos[i]->name);
+      RenderVideo(options, *videos[i], static_cast<int>(i), synth_scene, &scene, room, root,
+                  videos[i]->phone == "view", &progress);
+      summary.frames_rendered += static_cast<int>(videos[i]->frames.size());
+    }
+    {
+      auto timer = record.Time("render_eval");
+      summary.eval_images = RenderEvalSet(options, plan, synth_scene, &scene, root, &progress);
+    }
+    progress.Finish();
+  }
+  WriteJsonFile((root / "truth.json").string(), kTruthKind, kTruthVersion,
+                MakeTruthJson(options, synth_scene, plan, !options.truth_only));
+  record.Set("light_start_offset_s", plan.light_start_offset_s);
+  record.Set("frames_rendered", summary.frames_rendered);
+  record.Set("eval_images", summary.eval_images);
+  record.Write((root / "run.json").string());
+  out.Commit();
+  summary.out_dir = options.out;
+  summary.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  spdlog::info("relit-synth: wrote {} ({} video frames, {} eval images) in {:.1f} s", options.out,
+               summary.frames_rendered, summary.eval_images, summary.seconds);
+  return summary;
+}
+
+int RunSynth(int argc, char** argv) {
+  CLI::App app{"relit-synth: render a synthetic dual-phone capture (phone V films, phone L's "
+               "flash lights) with complete ground truth. See docs/synthetic.md."};
+  std::string config, preset, size, out, mesh, log_level = "info";
+  uint64_t seed = 0;
+  bool geometry_pass = false, truth_only = false;
+  app.add_option("--config", config, "YAML file with SynthOptions (unknown keys are errors)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--preset", preset, "scene: spot | bunny | spheres | mesh (default spot)");
+  app.add_option("--mesh", mesh, "OBJ/PLY file for --preset mesh (Y-up, scaled to 12 cm)");
+  app.add_option("--size", size, "tiny (tests) | demo (<= 5 min) | full (benchmark) (default tiny)");
+  auto* seed_option = app.add_option("--seed", seed, "random seed (default 1)");
+  app.add_option("--out", out, "output directory (replaced atomically)");
+  app.add_flag("--geometry-pass", geometry_pass, "also render geometry.mp4 under soft ambient light");
+  app.add_flag("--truth-only", truth_only, "write truth.json and meshes only, render nothing");
+  app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  SetVerbosity(ParseLogLevel(log_level));
+
+  // Size defaults first (the size may come from the file), then the file, then flags.
+  std::string chosen_size = size;
+  std::unique_ptr<OptionsReader> reader;
+  if (!config.empty()) {
+    reader = std::make_unique<OptionsReader>(OptionsReader::FromFile(config));
+    if (chosen_size.empty()) {
+      std::string file_size = "tiny";
+      OptionsReader probe = OptionsReader::FromFile(config);
+      probe.Read("size", &file_size);
+      chosen_size = file_size;
+    }
+  }
+  if (chosen_size.empty()) chosen_size = "tiny";
+  SynthOptions options = SynthOptions::ForSize(chosen_size);
+  if (reader) options.Read(*reader);
+  options.size = chosen_size;
+  if (!preset.empty()) options.preset = preset;
+  if (!mesh.empty()) options.mesh_path = mesh;
+  if (seed_option->count() > 0) options.seed = seed;
+  if (!out.empty()) options.out = out;
+  if (geometry_pass) options.geometry_pass = true;
+  if (truth_only) options.truth_only = true;
+  options.Check();
+  RunSynthImpl(options);
+  return 0;
+}
+
+}  // namespace relit::synth

@@ -1,0 +1,27 @@
+// relit-synth: renders a synthetic dual-phone capture with ground truth.
+// See docs/synthetic.md.
+#pragma once
+
+#include <string>
+
+#include "tools/synth/synth_options.h"
+
+namespace relit::synth {
+
+struct SynthSummary {
+  std::string out_dir;
+  double light_start_offset_s = 0;
+  int frames_rendered = 0;  // video frames over all videos
+  int eval_images = 0;
+  double seconds = 0;
+};
+
+// Renders everything described by `options` into options.out (atomically:
+// the directory appears complete or not at all). Throws relit::Error.
+SynthSummary RunSynthImpl(const SynthOptions& options);
+
+// Command line: parses flags and an optional --config YAML, then calls
+// RunSynthImpl. Returns the process exit code; errors propagate as relit::Error.
+int RunSynth(int argc, char** argv);
+
+}  // namespace relit::synth

@@ -1,0 +1,98 @@
+// Options of relit-synth: preset, size, seed and every knob of the simulated
+// capture. Defaults depend on the size ("tiny", "demo", "full"): build with
+// SynthOptions::ForSize(), then Read() a YAML file on top (unknown keys are
+// errors), then Check().
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/board.h"
+#include "core/options.h"
+
+namespace relit::synth {
+
+struct SynthOptions {
+  std::string preset = "spot";       // spot | bunny | spheres | mesh
+  std::string mesh_path;             // preset "mesh": OBJ or PLY file
+  double mesh_height_m = 0.12;       // preset "mesh": scaled to this height
+  bool mesh_y_up = true;             // preset "mesh": false if the file is Z-up
+  std::string size = "tiny";         // tiny | demo | full
+  uint64_t seed = 1;
+  std::string out;                   // output directory (required)
+  std::string assets_dir;            // empty = compiled-in tools/synth/assets
+  bool geometry_pass = false;        // also render geometry.mp4 under soft ambient light
+  bool truth_only = false;           // write truth.json and meshes, render nothing
+
+  // Video and rendering.
+  int width_px = 320;
+  int height_px = 240;
+  int fps = 30;
+  int frames_per_video = 30;
+  int samples_per_pixel = 4;
+  int max_depth = 3;                 // path length in bounces
+  int crf = 14;
+  int display_rotation_deg = 0;      // phone-style rotate metadata on the MP4s
+
+  // Phone lenses: horizontal field of view, principal point offset (fraction
+  // of the image size) and OpenCV distortion (k1, k2, p1, p2, k3).
+  double view_hfov_deg = 67.0;
+  double light_hfov_deg = 70.0;
+  std::vector<double> view_principal_offset = {0.012, -0.008};
+  std::vector<double> light_principal_offset = {-0.009, 0.010};
+  std::vector<double> view_distortion = {0.09, -0.03, 0.0004, -0.0003, 0.0};
+  std::vector<double> light_distortion = {0.06, 0.01, -0.0002, 0.0005, 0.0};
+
+  // Hand-held paths.
+  double distance_min_m = 0.3;
+  double distance_max_m = 0.7;
+  double elevation_min_deg = 15.0;
+  double elevation_max_deg = 70.0;
+  double view_turns = 1.0;           // azimuth revolutions of phone V over its video
+  double light_speed_ratio = 3.0;    // phone L's azimuth rate / phone V's
+  double roll_max_deg = 10.0;
+  double jitter_m = 0.0015;
+  double jitter_deg = 0.3;
+  double aim_error_m = 0.01;
+
+  // Flash (phone L's torch): offset from the lens in phone L's camera frame.
+  std::vector<double> flash_offset_cam_m = {0.01, 0.0, 0.0};
+  double flash_intensity_w_per_sr = 0.9;
+  double geometry_ambient_scale = 1.0;  // radiance scale of the geometry-pass environment
+
+  // Sensor.
+  double exposure = 1.0;
+  double full_well_e = 800.0;
+  double read_noise_e = 3.0;
+
+  // Audio: |offset| between the two recordings' starts is drawn uniformly in
+  // [min, max] with a random sign.
+  double audio_offset_min_s = 0.2;
+  double audio_offset_max_s = 3.0;
+  int clap_count = 4;
+
+  // Evaluation set.
+  int eval_views = 3;
+  int eval_samples_per_pixel = 16;
+  int eval_point_lights = 2;
+  int eval_directional_lights = 2;
+  int envmap_width_px = 512;
+  double eval_min_angle_deg = 10.0;  // held-out views stay this far from every phone-V view
+
+  BoardSpec board;
+
+  // Defaults for a size; throws relit::Error for an unknown size.
+  static SynthOptions ForSize(const std::string& size);
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+
+  double duration_s() const { return static_cast<double>(frames_per_video) / fps; }
+};
+
+std::vector<std::string> SizeNames();
+
+}  // namespace relit::synth

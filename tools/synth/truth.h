@@ -1,0 +1,38 @@
+// Ground truth of a synthetic capture: truth.json (schema relit.synth_truth/1)
+// and the files it references (world-frame meshes, material textures, the
+// printed board). Paths inside truth.json are relative to the output directory.
+#pragma once
+
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "tools/synth/capture_plan.h"
+#include "tools/synth/scene.h"
+#include "tools/synth/synth_options.h"
+
+namespace relit::synth {
+
+constexpr const char* kTruthKind = "synth_truth";
+constexpr int kTruthVersion = 1;
+
+// Relative paths of per-frame and per-view files, shared by the renderer and
+// the truth writer.
+std::string AlphaPath(const std::string& video, int frame);   // truth/<video>_alpha/NNNNNN.exr
+std::string EvalImagePath(const std::string& view, const std::string& light);  // eval/<view>/<light>.exr
+std::string EvalAlphaPath(const std::string& view);           // eval/<view>/alpha.exr
+std::string EnvmapPath(const std::string& name);              // eval/envmaps/<name>.exr
+std::string MeshPath(const std::string& object);              // truth/meshes/<object>.obj
+std::string TexturePath(const std::string& texture);          // truth/textures/<texture>.exr
+constexpr const char* kGeometryEnvmapPath = "truth/geometry_environment.exr";
+constexpr const char* kBoardImagePath = "truth/board.png";
+
+// Writes meshes, textures and the board image below `out_dir`.
+void WriteSceneTruth(const SynthScene& scene, const std::string& out_dir);
+
+// The truth.json body (without "schema"). `rendered` says whether videos,
+// mattes and the evaluation set were rendered (false for truth_only runs).
+nlohmann::json MakeTruthJson(const SynthOptions& options, const SynthScene& scene,
+                             const CapturePlan& plan, bool rendered);
+
+}  // namespace relit::synth
