@@ -1,0 +1,106 @@
+#include "relight/checkpoint.h"
+
+#include <exception>
+
+#include "core/atomic_output.h"
+#include "core/error.h"
+#include "core/json_file.h"
+#include "core/options.h"
+
+namespace relit::relight {
+namespace {
+
+constexpr const char* kModelFile = "model.pt";
+constexpr const char* kOptimizerFile = "optimizer.pt";
+constexpr const char* kRngFile = "rng.pt";
+constexpr const char* kInfoFile = "checkpoint.json";
+
+// Runs a LibTorch load/save and turns its c10::Error into a relit::Error
+// naming the file.
+template <typename Fn>
+void WithTorchErrors(const std::filesystem::path& path, const char* what, Fn fn) {
+  try {
+    fn();
+  } catch (const c10::Error& e) {
+    Fail("checkpoint: cannot ", what, " ", path.string(), ": ", e.what_without_backtrace());
+  }
+}
+
+ModelOptions ModelOptionsFromJson(const nlohmann::json& j, const std::string& where) {
+  OptionsReader reader = OptionsReader::FromString(j.dump(), where);
+  ModelOptions options;
+  options.Read(reader);
+  return options;
+}
+
+TrainOptions TrainOptionsFromJson(const nlohmann::json& j, const std::string& where) {
+  OptionsReader reader = OptionsReader::FromString(j.dump(), where);
+  TrainOptions options;
+  options.Read(reader);
+  return options;
+}
+
+}  // namespace
+
+void SaveCheckpoint(const std::filesystem::path& dir, Trainer& trainer) {
+  AtomicDir out(dir);
+  const auto model_path = out.path() / kModelFile;
+  const auto optimizer_path = out.path() / kOptimizerFile;
+  const auto rng_path = out.path() / kRngFile;
+  WithTorchErrors(model_path, "write", [&] { torch::save(trainer.model(), model_path.string()); });
+  WithTorchErrors(optimizer_path, "write", [&] { torch::save(trainer.optimizer(), optimizer_path.string()); });
+  WithTorchErrors(rng_path, "write", [&] { torch::save(trainer.generator().get_state(), rng_path.string()); });
+  nlohmann::json body = {
+      {"step", trainer.step()},
+      {"model_options", trainer.model()->options().ToJson()},
+      {"train_options", trainer.train_options().ToJson()},
+      {"torch_version", TORCH_VERSION},
+      {"files", {{"model", kModelFile}, {"optimizer", kOptimizerFile}, {"rng", kRngFile}}},
+  };
+  WriteJsonFile((out.path() / kInfoFile).string(), CheckpointInfo::kKind, CheckpointInfo::kVersion, body);
+  out.Commit();
+}
+
+CheckpointInfo ReadCheckpointInfo(const std::filesystem::path& dir) {
+  const std::string path = (dir / kInfoFile).string();
+  const nlohmann::json j = ReadJsonFile(path, CheckpointInfo::kKind, CheckpointInfo::kVersion);
+  CheckpointInfo info;
+  const nlohmann::json& step = JsonField(j, "step", path);
+  RELIT_REQUIRE(step.is_number_integer() && step.get<int64_t>() >= 0, path,
+                ": 'step' must be a non-negative integer");
+  info.step = step.get<int64_t>();
+  info.model_options = ModelOptionsFromJson(JsonField(j, "model_options", path), path + " model_options");
+  info.train_options = TrainOptionsFromJson(JsonField(j, "train_options", path), path + " train_options");
+  return info;
+}
+
+std::unique_ptr<Trainer> LoadTrainer(const std::filesystem::path& dir, const std::string& device) {
+  CheckpointInfo info = ReadCheckpointInfo(dir);
+  if (!device.empty()) info.model_options.device = device;
+  auto trainer = std::make_unique<Trainer>(info.model_options, info.train_options);
+  const torch::Device target = trainer->model()->device();
+  const auto model_path = dir / kModelFile;
+  const auto optimizer_path = dir / kOptimizerFile;
+  const auto rng_path = dir / kRngFile;
+  WithTorchErrors(model_path, "read", [&] { torch::load(trainer->model(), model_path.string(), target); });
+  WithTorchErrors(optimizer_path, "read",
+                  [&] { torch::load(trainer->optimizer(), optimizer_path.string(), target); });
+  torch::Tensor rng_state;
+  WithTorchErrors(rng_path, "read", [&] {
+    torch::load(rng_state, rng_path.string());
+    trainer->generator().set_state(rng_state);
+  });
+  trainer->set_step(info.step);
+  return trainer;
+}
+
+DnlModel LoadModel(const std::filesystem::path& dir, const std::string& device) {
+  CheckpointInfo info = ReadCheckpointInfo(dir);
+  if (!device.empty()) info.model_options.device = device;
+  DnlModel model(info.model_options);
+  const auto model_path = dir / kModelFile;
+  WithTorchErrors(model_path, "read", [&] { torch::load(model, model_path.string(), model->device()); });
+  return model;
+}
+
+}  // namespace relit::relight

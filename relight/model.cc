@@ -1,0 +1,255 @@
+#include "relight/model.h"
+
+#include <ATen/CPUGeneratorImpl.h>
+#include <cmath>
+
+#include "core/error.h"
+#include "core/options.h"
+
+namespace relit::relight {
+namespace {
+
+namespace F = torch::nn::functional;
+
+void CheckShape(const torch::Tensor& t, const char* name, std::vector<int64_t> expected) {
+  bool ok = t.defined() && t.dim() == static_cast<int64_t>(expected.size());
+  for (size_t i = 0; ok && i < expected.size(); ++i) ok = t.size(static_cast<int64_t>(i)) == expected[i];
+  RELIT_REQUIRE(ok, "batch: ", name, " must have shape ", c10::IntArrayRef(expected), ", got ",
+                t.defined() ? t.sizes() : c10::IntArrayRef{});
+}
+
+double RequireMaxRadiance(double max_radiance) {
+  RELIT_REQUIRE(max_radiance > 0, "model: max_radiance must be set (> 0) before building the model; it is "
+                                  "the scene's maximum radiance M of the log encoding");
+  return max_radiance;
+}
+
+}  // namespace
+
+NeuralTextureOptions ModelOptions::TextureOptions() const {
+  NeuralTextureOptions t;
+  t.resolution_px = texture_resolution_px;
+  t.channels_per_basis = channels_per_basis;
+  t.mip_levels = mip_levels;
+  return t;
+}
+
+GeneratorOptions ModelOptions::RendererOptions() const {
+  GeneratorOptions g;
+  g.input_channels = kBasisCount * channels_per_basis;
+  g.output_channels = 3;
+  g.ngf = ngf;
+  g.n_blocks = n_blocks;
+  g.upsampling = upsampling;
+  g.output_tanh = true;
+  return g;
+}
+
+GeneratorOptions ModelOptions::MaskOptions() const {
+  GeneratorOptions g = RendererOptions();
+  g.output_channels = 1;
+  g.ngf = mask_ngf;
+  g.n_blocks = mask_n_blocks;
+  g.output_tanh = false;  // a logit
+  return g;
+}
+
+void ModelOptions::Read(OptionsReader& reader) {
+  reader.ReadRange("texture_resolution_px", &texture_resolution_px, 1, 8192);
+  reader.ReadRange("channels_per_basis", &channels_per_basis, 1, 64);
+  reader.ReadRange("mip_levels", &mip_levels, 0, 14);
+  reader.ReadRange("ngf", &ngf, 1, 512);
+  reader.ReadRange("n_blocks", &n_blocks, 0, 64);
+  reader.ReadRange("mask_ngf", &mask_ngf, 1, 512);
+  reader.ReadRange("mask_n_blocks", &mask_n_blocks, 0, 64);
+  reader.Read("upsampling", &upsampling);
+  reader.Read("max_radiance", &max_radiance);
+  reader.Read("device", &device);
+  reader.Finish();
+  Check();
+}
+
+void ModelOptions::Check() const {
+  TextureOptions().Check();
+  RendererOptions().Check();
+  MaskOptions().Check();
+  RELIT_REQUIRE(std::isfinite(max_radiance) && max_radiance >= 0,
+                "model max_radiance must be finite and >= 0 (0 = set from the data), got ", max_radiance);
+  RELIT_REQUIRE(device == "cpu" || device == "cuda" || device == "auto",
+                "model device must be cpu, cuda or auto, got '", device, "'");
+}
+
+nlohmann::json ModelOptions::ToJson() const {
+  return {{"texture_resolution_px", texture_resolution_px},
+          {"channels_per_basis", channels_per_basis},
+          {"mip_levels", mip_levels},
+          {"ngf", ngf},
+          {"n_blocks", n_blocks},
+          {"mask_ngf", mask_ngf},
+          {"mask_n_blocks", mask_n_blocks},
+          {"upsampling", upsampling},
+          {"max_radiance", max_radiance},
+          {"device", device}};
+}
+
+void TrainOptions::Read(OptionsReader& reader) {
+  reader.Read("learning_rate", &learning_rate);
+  reader.Read("beta1", &beta1);
+  reader.Read("beta2", &beta2);
+  reader.ReadRange("batch_size", &batch_size, 1, 1024);
+  reader.ReadRange("crop_px", &crop_px, 0, 8192);
+  reader.Read("mask_loss_weight", &mask_loss_weight);
+  reader.Read("seed", &seed);
+  reader.ReadRange("threads", &threads, 1, 256);
+  reader.Finish();
+  Check();
+}
+
+void TrainOptions::Check() const {
+  RELIT_REQUIRE(learning_rate > 0 && learning_rate < 1, "learning_rate must be in (0, 1), got ", learning_rate);
+  RELIT_REQUIRE(beta1 >= 0 && beta1 < 1 && beta2 >= 0 && beta2 < 1, "Adam beta1/beta2 must be in [0, 1)");
+  RELIT_REQUIRE(batch_size >= 1, "batch_size must be >= 1, got ", batch_size);
+  RELIT_REQUIRE(crop_px == 0 || (crop_px >= 8 && crop_px % 4 == 0),
+                "crop_px must be 0 (no crop) or a multiple of 4 that is >= 8, got ", crop_px);
+  RELIT_REQUIRE(mask_loss_weight >= 0 && std::isfinite(mask_loss_weight), "mask_loss_weight must be >= 0");
+  RELIT_REQUIRE(threads >= 1 && threads <= 256, "threads must be in [1, 256], got ", threads);
+}
+
+nlohmann::json TrainOptions::ToJson() const {
+  return {{"learning_rate", learning_rate}, {"beta1", beta1}, {"beta2", beta2},
+          {"batch_size", batch_size}, {"crop_px", crop_px}, {"mask_loss_weight", mask_loss_weight},
+          {"seed", seed}, {"threads", threads}};
+}
+
+void Batch::Check(bool need_targets) const {
+  RELIT_REQUIRE(uv.defined() && uv.dim() == 4, "batch: uv must be [B, H, W, 2]");
+  const int64_t b = uv.size(0), h = uv.size(1), w = uv.size(2);
+  CheckShape(uv, "uv", {b, h, w, 2});
+  CheckShape(uv_derivatives, "uv_derivatives", {b, h, w, 4});
+  CheckShape(coverage, "coverage", {b, 1, h, w});
+  CheckShape(cues, "cues", {b, 3 * kBasisCount, h, w});
+  if (need_targets || target_rgb.defined()) CheckShape(target_rgb, "target_rgb", {b, 3, h, w});
+  if (need_targets || target_matte.defined()) CheckShape(target_matte, "target_matte", {b, 1, h, w});
+}
+
+Batch Batch::To(const torch::Device& device) const {
+  auto move = [&](const torch::Tensor& t) { return t.defined() ? t.to(device, torch::kFloat) : t; };
+  return {move(uv), move(uv_derivatives), move(coverage), move(cues), move(target_rgb), move(target_matte)};
+}
+
+Batch CropBatch(const Batch& batch, int64_t top, int64_t left, int64_t height, int64_t width) {
+  RELIT_REQUIRE(top >= 0 && left >= 0 && height >= 1 && width >= 1 && top + height <= batch.height() &&
+                    left + width <= batch.width(),
+                "crop [", top, ", ", top + height, ") x [", left, ", ", left + width, ") outside the ",
+                batch.height(), " x ", batch.width(), " frame");
+  auto hwc = [&](const torch::Tensor& t) {  // [B, H, W, C]
+    return t.defined() ? t.slice(1, top, top + height).slice(2, left, left + width) : t;
+  };
+  auto chw = [&](const torch::Tensor& t) {  // [B, C, H, W]
+    return t.defined() ? t.slice(2, top, top + height).slice(3, left, left + width) : t;
+  };
+  return {hwc(batch.uv), hwc(batch.uv_derivatives), chw(batch.coverage), chw(batch.cues),
+          chw(batch.target_rgb), chw(batch.target_matte)};
+}
+
+Batch RandomCrop(const Batch& batch, int crop_px, at::Generator& generator) {
+  const int64_t h = batch.height(), w = batch.width();
+  if (crop_px <= 0 || (crop_px >= h && crop_px >= w)) return batch;
+  const int64_t ch = std::min<int64_t>(crop_px, h), cw = std::min<int64_t>(crop_px, w);
+  const torch::Tensor& object = batch.target_matte.defined() ? batch.target_matte : batch.coverage;
+  Batch crop;
+  for (int attempt = 0; attempt < 8; ++attempt) {
+    // Always two draws per attempt, so the generator advances predictably.
+    const int64_t top = torch::randint(0, h - ch + 1, {1}, generator).item<int64_t>();
+    const int64_t left = torch::randint(0, w - cw + 1, {1}, generator).item<int64_t>();
+    crop = CropBatch(batch, top, left, ch, cw);
+    if (!object.defined()) break;
+    const auto window = object.slice(2, top, top + ch).slice(3, left, left + cw);
+    if (window.max().item<double>() > 0) break;
+  }
+  return crop;
+}
+
+DnlModelImpl::DnlModelImpl(const ModelOptions& options)
+    : options_(options),
+      device_(ResolveDevice(options.device)),
+      encoding_(RequireMaxRadiance(options.max_radiance)) {
+  options_.Check();
+  texture_ = register_module("texture", NeuralTexture(options_.TextureOptions()));
+  renderer_ = register_module("renderer", ResnetGenerator(options_.RendererOptions()));
+  mask_net_ = register_module("mask", ResnetGenerator(options_.MaskOptions()));
+  to(device_);
+}
+
+ModelOutput DnlModelImpl::Forward(const Batch& batch_in) {
+  batch_in.Check(/*need_targets=*/false);
+  const Batch batch = batch_in.To(device_);
+  const auto texture = texture_->forward(batch.uv, batch.uv_derivatives, batch.coverage);
+  const auto input = BuildNetworkInput(texture, batch.cues, encoding_.max_radiance());
+  return {renderer_->forward(input), mask_net_->forward(texture)};
+}
+
+Losses DnlModelImpl::Loss(const ModelOutput& output, const Batch& batch_in, double mask_loss_weight) const {
+  batch_in.Check(/*need_targets=*/true);
+  const Batch batch = batch_in.To(device_);
+  const auto& matte = batch.target_matte;
+  const auto target_log = encoding_.Encode(batch.target_rgb);
+  // L1 in log space where the object is: the matte weights each pixel, the
+  // mean is over the matte's area (at least one pixel).
+  const auto rgb = (matte * (output.rgb_log - target_log).abs()).sum() / (matte.sum() * 3.0).clamp_min(1.0);
+  const auto mask = F::binary_cross_entropy_with_logits(output.mask_logit, matte);
+  return {rgb + mask_loss_weight * mask, rgb, mask};
+}
+
+torch::Tensor DnlModelImpl::Render(const Batch& batch) {
+  torch::NoGradGuard no_grad;
+  const ModelOutput output = Forward(batch);
+  const auto alpha = torch::sigmoid(output.mask_logit);
+  return torch::cat({encoding_.Decode(output.rgb_log) * alpha, alpha}, 1);
+}
+
+Trainer::Trainer(const ModelOptions& model_options, const TrainOptions& train_options)
+    : train_options_(train_options),
+      generator_(at::make_generator<at::CPUGeneratorImpl>(train_options.seed)) {
+  train_options_.Check();
+  model_options.Check();
+  ConfigureTorch(train_options_.threads, ResolveDevice(model_options.device));
+  torch::manual_seed(train_options_.seed);
+  model_ = DnlModel(model_options);
+  optimizer_ = std::make_unique<torch::optim::Adam>(
+      model_->parameters(), torch::optim::AdamOptions(train_options_.learning_rate)
+                                .betas({train_options_.beta1, train_options_.beta2}));
+}
+
+Losses Trainer::Step(const Batch& batch) {
+  batch.Check(/*need_targets=*/true);
+  model_->train();
+  const Batch crop = RandomCrop(batch, train_options_.crop_px, generator_);
+  optimizer_->zero_grad();
+  const ModelOutput output = model_->Forward(crop);
+  const Losses losses = model_->Loss(output, crop, train_options_.mask_loss_weight);
+  losses.total.backward();
+  optimizer_->step();
+  ++step_;
+  return {losses.total.detach(), losses.rgb.detach(), losses.mask.detach()};
+}
+
+torch::Device ResolveDevice(const std::string& name) {
+  if (name == "cpu") return torch::kCPU;
+  const bool cuda = torch::cuda::is_available();
+  if (name == "auto") return cuda ? torch::Device(torch::kCUDA) : torch::Device(torch::kCPU);
+  RELIT_REQUIRE(name == "cuda", "device must be cpu, cuda or auto, got '", name, "'");
+  RELIT_REQUIRE(cuda, "device cuda requested, but this LibTorch build has no CUDA support or no GPU is "
+                      "visible; use device: cpu (or auto)");
+  return torch::kCUDA;
+}
+
+void ConfigureTorch(int threads, const torch::Device& device) {
+  RELIT_REQUIRE(threads >= 1, "torch threads must be >= 1, got ", threads);
+  torch::set_num_threads(threads);
+  at::globalContext().setDeterministicAlgorithms(true, /*warn_only=*/device.is_cuda());
+  at::globalContext().setDeterministicCuDNN(true);
+  at::globalContext().setBenchmarkCuDNN(false);
+}
+
+}  // namespace relit::relight

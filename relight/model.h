@@ -1,0 +1,172 @@
+// The Deferred Neural Lighting model of one view partition and its training.
+//
+//   texture  = NeuralTexture(uv, uv derivatives, coverage)          [B, 5C, H, W]
+//   rgb_log  = Renderer(LogEncode(texture x tiled cues))             [B, 3, H, W]
+//   mask     = MaskNet(texture)  (a logit)                           [B, 1, H, W]
+//   RGBA     = (Decode(rgb_log) * sigmoid(mask), sigmoid(mask))      premultiplied
+//
+// Loss (per batch):
+//   rgb  = sum(matte * |rgb_log - LogEncode(target_rgb)|) / (3 sum(matte))
+//          (L1 in log space, only where the object is: the matte weights it)
+//   mask = mean BCE-with-logits(mask logit, matte)
+//   total = rgb + mask_loss_weight * mask        (weight 1 by default)
+//
+// Tensors are float32 on the model's device; Batch tensors may be on any
+// device and are moved by Forward/Step.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include <nlohmann/json.hpp>
+#include <torch/torch.h>
+
+#include "relight/log_encoding.h"
+#include "relight/networks.h"
+#include "relight/neural_texture.h"
+
+namespace relit {
+class OptionsReader;
+}
+
+namespace relit::relight {
+
+struct ModelOptions {
+  int texture_resolution_px = 256;  // power of two
+  int channels_per_basis = 6;       // C; the texture has 5 C channels
+  int mip_levels = 0;               // 0 = full chain
+  int ngf = 32;                     // renderer width (DNL: 64)
+  int n_blocks = 6;                 // renderer residual blocks (DNL: 9)
+  int mask_ngf = 16;                // mask network: half the renderer's channels
+  int mask_n_blocks = 3;
+  std::string upsampling = "transposed";  // "transposed" | "resize_conv"
+  // M of the log encoding, the scene's maximum radiance. 0 = not set yet:
+  // whoever builds the model from data must set it (DnlModel requires > 0).
+  double max_radiance = 0.0;
+  std::string device = "cpu";       // "cpu", "cuda" or "auto" (cuda when available)
+
+  NeuralTextureOptions TextureOptions() const;
+  GeneratorOptions RendererOptions() const;
+  GeneratorOptions MaskOptions() const;
+
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+struct TrainOptions {
+  double learning_rate = 2e-4;  // Adam, as in DNL
+  double beta1 = 0.9;
+  double beta2 = 0.999;
+  int batch_size = 1;           // frames per step (the data loader's business)
+  int crop_px = 128;            // random square crops; 0 = whole frames; multiple of 4
+  double mask_loss_weight = 1.0;
+  uint64_t seed = 1;            // model initialisation and crop positions
+  int threads = 2;              // torch intra-op threads
+
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+// One batch of frames; every per-pixel tensor has the same B, H, W.
+struct Batch {
+  torch::Tensor uv;              // [B, H, W, 2]  OBJ convention (v up)
+  torch::Tensor uv_derivatives;  // [B, H, W, 4]  dudx, dvdx, dudy, dvdy
+  torch::Tensor coverage;        // [B, 1, H, W]  proxy coverage in [0, 1]
+  torch::Tensor cues;            // [B, 15, H, W] radiance cues, linear RGB x 5 bases
+  torch::Tensor target_rgb;      // [B, 3, H, W]  linear radiance (training only)
+  torch::Tensor target_matte;    // [B, 1, H, W]  in [0, 1] (training only)
+
+  int64_t batch_size() const { return uv.size(0); }
+  int64_t height() const { return uv.size(1); }
+  int64_t width() const { return uv.size(2); }
+  bool has_targets() const { return target_rgb.defined() && target_matte.defined(); }
+  // Throws relit::Error naming the tensor whose shape is wrong.
+  void Check(bool need_targets) const;
+  Batch To(const torch::Device& device) const;
+};
+
+// The same window [top, top + height) x [left, left + width) of every
+// per-pixel tensor.
+Batch CropBatch(const Batch& batch, int64_t top, int64_t left, int64_t height, int64_t width);
+
+// A random crop_px x crop_px window (positions drawn from `generator`),
+// preferring windows where the matte (or, without targets, the coverage) is
+// non-zero: up to 8 draws, the first one that sees the object wins. Returns
+// the batch unchanged when crop_px is 0 or not smaller than the frame.
+Batch RandomCrop(const Batch& batch, int crop_px, at::Generator& generator);
+
+struct ModelOutput {
+  torch::Tensor rgb_log;     // [B, 3, H, W] log-encoded RGB, in [-1, 1]
+  torch::Tensor mask_logit;  // [B, 1, H, W]
+};
+
+struct Losses {
+  torch::Tensor total, rgb, mask;  // scalars
+};
+
+class DnlModelImpl : public torch::nn::Module {
+ public:
+  // Builds on options.device. Requires options.max_radiance > 0.
+  explicit DnlModelImpl(const ModelOptions& options);
+
+  ModelOutput Forward(const Batch& batch);
+  Losses Loss(const ModelOutput& output, const Batch& batch, double mask_loss_weight = 1.0) const;
+  // Premultiplied linear RGBA [B, 4, H, W]: decoded RGB x alpha, alpha =
+  // sigmoid(mask logit). No gradients.
+  torch::Tensor Render(const Batch& batch);
+
+  const ModelOptions& options() const { return options_; }
+  const torch::Device& device() const { return device_; }
+  const LogEncoding& encoding() const { return encoding_; }
+  NeuralTexture& texture() { return texture_; }
+  ResnetGenerator& renderer() { return renderer_; }
+  ResnetGenerator& mask_net() { return mask_net_; }
+
+ private:
+  ModelOptions options_;
+  torch::Device device_;
+  LogEncoding encoding_;
+  NeuralTexture texture_{nullptr};
+  ResnetGenerator renderer_{nullptr};
+  ResnetGenerator mask_net_{nullptr};
+};
+TORCH_MODULE(DnlModel);
+
+// Model + Adam + crop generator + step counter. Construction seeds torch's
+// global generator with options.seed, so models built with the same options
+// start identical.
+class Trainer {
+ public:
+  Trainer(const ModelOptions& model_options, const TrainOptions& train_options);
+
+  // One optimisation step on a (random crop of the) batch; returns the
+  // losses (detached).
+  Losses Step(const Batch& batch);
+
+  DnlModel& model() { return model_; }
+  torch::optim::Adam& optimizer() { return *optimizer_; }
+  at::Generator& generator() { return generator_; }
+  const TrainOptions& train_options() const { return train_options_; }
+  int64_t step() const { return step_; }
+  void set_step(int64_t step) { step_ = step; }
+
+ private:
+  TrainOptions train_options_;
+  DnlModel model_{nullptr};
+  std::unique_ptr<torch::optim::Adam> optimizer_;
+  at::Generator generator_;
+  int64_t step_ = 0;
+};
+
+// "cpu", "cuda" (Error when CUDA is not available) or "auto".
+torch::Device ResolveDevice(const std::string& name);
+
+// Intra-op threads and deterministic algorithms (strict on CPU; warn-only on
+// CUDA, where some kernels, e.g. grid_sample's backward, have no
+// deterministic version). Process-wide.
+void ConfigureTorch(int threads, const torch::Device& device);
+
+}  // namespace relit::relight

@@ -1,0 +1,123 @@
+#include "relight/networks.h"
+
+#include "core/error.h"
+#include "relight/log_encoding.h"
+#include "relight/neural_texture.h"
+
+namespace relit::relight {
+namespace {
+
+namespace nn = torch::nn;
+
+nn::InstanceNorm2d Norm(int channels) {
+  // CycleGAN's default: no affine parameters, no running statistics.
+  return nn::InstanceNorm2d(nn::InstanceNorm2dOptions(channels).affine(false).track_running_stats(false));
+}
+
+nn::Conv2d Conv(int in, int out, int kernel, int stride = 1, int padding = 0) {
+  return nn::Conv2d(nn::Conv2dOptions(in, out, kernel).stride(stride).padding(padding).bias(true));
+}
+
+}  // namespace
+
+void GeneratorOptions::Check() const {
+  RELIT_REQUIRE(input_channels >= 1 && output_channels >= 1, "generator: channel counts must be >= 1");
+  RELIT_REQUIRE(ngf >= 1 && ngf <= 512, "generator ngf must be in [1, 512], got ", ngf);
+  RELIT_REQUIRE(n_blocks >= 0 && n_blocks <= 64, "generator n_blocks must be in [0, 64], got ", n_blocks);
+  RELIT_REQUIRE(upsampling == "transposed" || upsampling == "resize_conv",
+                "generator upsampling must be transposed or resize_conv, got '", upsampling, "'");
+}
+
+nlohmann::json GeneratorOptions::ToJson() const {
+  return {{"input_channels", input_channels}, {"output_channels", output_channels}, {"ngf", ngf},
+          {"n_blocks", n_blocks}, {"upsampling", upsampling}, {"output_tanh", output_tanh}};
+}
+
+ResnetBlockImpl::ResnetBlockImpl(int channels) {
+  body_ = register_module("body", nn::Sequential(nn::ReflectionPad2d(1), Conv(channels, channels, 3),
+                                                 Norm(channels), nn::ReLU(), nn::ReflectionPad2d(1),
+                                                 Conv(channels, channels, 3), Norm(channels)));
+}
+
+torch::Tensor ResnetBlockImpl::forward(const torch::Tensor& x) { return x + body_->forward(x); }
+
+ResnetGeneratorImpl::ResnetGeneratorImpl(const GeneratorOptions& options) : options_(options) {
+  options_.Check();
+  const int ngf = options_.ngf;
+  nn::Sequential model;
+  model->push_back(nn::ReflectionPad2d(3));
+  model->push_back(Conv(options_.input_channels, ngf, 7));
+  model->push_back(Norm(ngf));
+  model->push_back(nn::ReLU());
+  int channels = ngf;
+  for (int i = 0; i < kDownsamplings; ++i) {
+    model->push_back(Conv(channels, channels * 2, 3, 2, 1));
+    model->push_back(Norm(channels * 2));
+    model->push_back(nn::ReLU());
+    channels *= 2;
+  }
+  for (int i = 0; i < options_.n_blocks; ++i) model->push_back(ResnetBlock(channels));
+  for (int i = 0; i < kDownsamplings; ++i) {
+    if (options_.upsampling == "transposed") {
+      model->push_back(nn::ConvTranspose2d(
+          nn::ConvTranspose2dOptions(channels, channels / 2, 3).stride(2).padding(1).output_padding(1)));
+    } else {
+      // Resize-convolution avoids the checkerboard artefacts transposed
+      // convolutions can leave.
+      model->push_back(nn::Upsample(
+          nn::UpsampleOptions().scale_factor(std::vector<double>{2.0, 2.0}).mode(torch::kNearest)));
+      model->push_back(nn::ReflectionPad2d(1));
+      model->push_back(Conv(channels, channels / 2, 3));
+    }
+    model->push_back(Norm(channels / 2));
+    model->push_back(nn::ReLU());
+    channels /= 2;
+  }
+  model->push_back(nn::ReflectionPad2d(3));
+  model->push_back(Conv(channels, options_.output_channels, 7));
+  if (options_.output_tanh) model->push_back(nn::Tanh());
+  model_ = register_module("model", model);
+
+  // pix2pix initialisation: N(0, 0.02) weights, zero biases.
+  torch::NoGradGuard no_grad;
+  for (auto& module : modules(/*include_self=*/false)) {
+    if (auto* conv = module->as<nn::Conv2d>()) {
+      conv->weight.normal_(0.0, 0.02);
+      conv->bias.zero_();
+    } else if (auto* deconv = module->as<nn::ConvTranspose2d>()) {
+      deconv->weight.normal_(0.0, 0.02);
+      deconv->bias.zero_();
+    }
+  }
+}
+
+torch::Tensor ResnetGeneratorImpl::forward(const torch::Tensor& x) {
+  RELIT_REQUIRE(x.dim() == 4 && x.size(1) == options_.input_channels, "generator: input must be [B, ",
+                options_.input_channels, ", H, W], got ", x.sizes());
+  const int64_t factor = int64_t{1} << kDownsamplings;
+  RELIT_REQUIRE(x.size(2) % factor == 0 && x.size(3) % factor == 0 && x.size(2) >= 2 * factor &&
+                    x.size(3) >= 2 * factor,
+                "generator: image size ", x.size(3), " x ", x.size(2), " must be a multiple of ", factor,
+                " and at least ", 2 * factor, " (crop or pad the input)");
+  return model_->forward(x);
+}
+
+torch::Tensor BuildNetworkInput(const torch::Tensor& sampled_texture, const torch::Tensor& cues,
+                                double max_radiance) {
+  RELIT_REQUIRE(sampled_texture.dim() == 4 && sampled_texture.size(1) % kBasisCount == 0,
+                "network input: texture must be [B, 5 C, H, W], got ", sampled_texture.sizes());
+  RELIT_REQUIRE(cues.dim() == 4 && cues.size(1) == 3 * kBasisCount && cues.size(0) == sampled_texture.size(0) &&
+                    cues.size(2) == sampled_texture.size(2) && cues.size(3) == sampled_texture.size(3),
+                "network input: cues must be [B, 15, H, W] matching the texture ", sampled_texture.sizes(),
+                ", got ", cues.sizes());
+  const int64_t per_basis = sampled_texture.size(1) / kBasisCount;
+  std::vector<int64_t> index;
+  for (int64_t basis = 0; basis < kBasisCount; ++basis) {
+    for (int64_t k = 0; k < per_basis; ++k) index.push_back(3 * basis + k % 3);
+  }
+  const auto index_tensor = torch::tensor(index, torch::TensorOptions().dtype(torch::kLong).device(cues.device()));
+  const auto tiled = cues.to(sampled_texture.dtype()).index_select(1, index_tensor);
+  return LogEncoding(max_radiance).Encode(sampled_texture * tiled);
+}
+
+}  // namespace relit::relight

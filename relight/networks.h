@@ -1,0 +1,73 @@
+// Networks of Deferred Neural Lighting.
+//
+// ResnetGenerator is the pix2pix/CycleGAN "ResNet" image generator:
+//   reflection pad 3, 7x7 conv (ngf), IN, ReLU
+//   2 x [3x3 conv stride 2 (channels x2), IN, ReLU]               downsampling
+//   n_blocks x [pad 1, 3x3 conv, IN, ReLU, pad 1, 3x3 conv, IN] + skip
+//   2 x [transposed 3x3 conv stride 2 (or nearest x2 + 3x3 conv), IN, ReLU]
+//   reflection pad 3, 7x7 conv (out), optional tanh
+// with instance norm (no affine, no running statistics) throughout, weights
+// N(0, 0.02) as in pix2pix. Fully convolutional: any H, W that are multiples
+// of 4 (and >= 8) work, so training on random crops is fine.
+//
+// The renderer network maps the log-encoded (neural texture x cues) input to
+// log-encoded RGB (tanh output in [-1, 1]). The mask network maps the
+// projected neural texture to a one-channel matte *logit* (no sigmoid: the
+// loss is BCE with logits and renders apply the sigmoid once).
+#pragma once
+
+#include <string>
+
+#include <nlohmann/json.hpp>
+#include <torch/torch.h>
+
+namespace relit::relight {
+
+struct GeneratorOptions {
+  int input_channels = 30;
+  int output_channels = 3;
+  int ngf = 32;                           // channels after the first conv
+  int n_blocks = 6;                       // residual blocks at 1/4 resolution
+  std::string upsampling = "transposed";  // "transposed" | "resize_conv"
+  bool output_tanh = true;
+
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+class ResnetBlockImpl : public torch::nn::Module {
+ public:
+  explicit ResnetBlockImpl(int channels);
+  torch::Tensor forward(const torch::Tensor& x);
+
+ private:
+  torch::nn::Sequential body_;
+};
+TORCH_MODULE(ResnetBlock);
+
+class ResnetGeneratorImpl : public torch::nn::Module {
+ public:
+  static constexpr int kDownsamplings = 2;
+
+  explicit ResnetGeneratorImpl(const GeneratorOptions& options);
+  // x: [B, input_channels, H, W] -> [B, output_channels, H, W]. Throws
+  // relit::Error for sizes that are not multiples of 4 or below 8.
+  torch::Tensor forward(const torch::Tensor& x);
+
+  const GeneratorOptions& options() const { return options_; }
+
+ private:
+  GeneratorOptions options_;
+  torch::nn::Sequential model_;
+};
+TORCH_MODULE(ResnetGenerator);
+
+// Network input of the renderer: the projected texture's channels of basis i
+// (channels i C .. i C + C - 1 of `sampled_texture` [B, 5 C, H, W]) times cue
+// i (channels 3 i .. 3 i + 2 of `cues` [B, 15, H, W], linear RGB radiance),
+// channel k of a basis using cue colour k mod 3; then log-encoded with the
+// scene's maximum radiance M. Returns [B, 5 C, H, W].
+torch::Tensor BuildNetworkInput(const torch::Tensor& sampled_texture, const torch::Tensor& cues,
+                                double max_radiance);
+
+}  // namespace relit::relight
