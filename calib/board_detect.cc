@@ -1,0 +1,243 @@
+#include "calib/board_detect.h"
+
+#include <algorithm>
+#include <chrono>
+#include <mutex>
+#include <set>
+
+#include <opencv2/aruco.hpp>
+#include <opencv2/aruco/charuco.hpp>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+extern "C" {
+#include <apriltag/apriltag.h>
+#include <apriltag/tag16h5.h>
+#include <apriltag/tag25h9.h>
+#include <apriltag/tag36h10.h>
+#include <apriltag/tag36h11.h>
+}
+
+#include "core/error.h"
+
+namespace relit::calib {
+
+namespace {
+
+double MillisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+apriltag_family_t* CreateFamily(const std::string& name) {
+  if (name == "tag36h11") return tag36h11_create();
+  if (name == "tag36h10") return tag36h10_create();
+  if (name == "tag25h9") return tag25h9_create();
+  if (name == "tag16h5") return tag16h5_create();
+  return nullptr;
+}
+
+void DestroyFamily(const std::string& name, apriltag_family_t* family) {
+  if (name == "tag36h11") tag36h11_destroy(family);
+  if (name == "tag36h10") tag36h10_destroy(family);
+  if (name == "tag25h9") tag25h9_destroy(family);
+  if (name == "tag16h5") tag16h5_destroy(family);
+}
+
+}  // namespace
+
+std::string AprilTagFamily(const std::string& dictionary) {
+  if (dictionary == "DICT_APRILTAG_36h11") return "tag36h11";
+  if (dictionary == "DICT_APRILTAG_36h10") return "tag36h10";
+  if (dictionary == "DICT_APRILTAG_25h9") return "tag25h9";
+  if (dictionary == "DICT_APRILTAG_16h5") return "tag16h5";
+  return "";
+}
+
+struct BoardDetector::Impl {
+  BoardSpec spec;
+  DetectOptions options;
+  cv::Ptr<cv::aruco::CharucoBoard> board;
+  cv::Ptr<cv::aruco::DetectorParameters> parameters;
+  std::string family_name;
+  // libapriltag detectors are not thread-safe: a pool, one per concurrent call.
+  apriltag_family_t* family = nullptr;
+  mutable std::mutex pool_mutex;
+  mutable std::vector<apriltag_detector_t*> pool;
+
+  apriltag_detector_t* Acquire() const {
+    {
+      std::lock_guard<std::mutex> lock(pool_mutex);
+      if (!pool.empty()) {
+        apriltag_detector_t* detector = pool.back();
+        pool.pop_back();
+        return detector;
+      }
+    }
+    apriltag_detector_t* detector = apriltag_detector_create();
+    apriltag_detector_add_family_bits(detector, family, 1);
+    detector->quad_decimate = 1.0f;  // phone frames are small already
+    detector->quad_sigma = 0.0f;
+    detector->refine_edges = 1;
+    detector->nthreads = 1;          // frames run in parallel instead
+    return detector;
+  }
+  void Release(apriltag_detector_t* detector) const {
+    std::lock_guard<std::mutex> lock(pool_mutex);
+    pool.push_back(detector);
+  }
+};
+
+BoardDetector::BoardDetector(const BoardSpec& spec, const DetectOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->spec = spec;
+  impl_->options = options;
+  impl_->board = MakeCharucoBoard(spec);
+  impl_->parameters = cv::aruco::DetectorParameters::create();
+  impl_->parameters->cornerRefinementMethod = cv::aruco::CORNER_REFINE_SUBPIX;
+  impl_->parameters->cornerRefinementWinSize = 3;
+  impl_->family_name = AprilTagFamily(spec.dictionary);
+  if (!impl_->family_name.empty()) impl_->family = CreateFamily(impl_->family_name);
+}
+
+BoardDetector::~BoardDetector() {
+  for (apriltag_detector_t* detector : impl_->pool) apriltag_detector_destroy(detector);
+  if (impl_->family) DestroyFamily(impl_->family_name, impl_->family);
+}
+
+bool BoardDetector::apriltag_available() const { return impl_->family != nullptr; }
+
+int BoardDetector::marker_count() const { return static_cast<int>(impl_->board->ids.size()); }
+
+std::vector<MarkerCorners> BoardDetector::DetectOpenCv(const cv::Mat& grey, int* rejected_count) const {
+  std::vector<int> ids;
+  std::vector<std::vector<cv::Point2f>> corners, rejected;
+  const cv::Ptr<cv::aruco::Board> board = impl_->board.staticCast<cv::aruco::Board>();
+  cv::aruco::detectMarkers(grey, impl_->board->dictionary, corners, ids, impl_->parameters, rejected);
+  if (!ids.empty()) {
+    cv::aruco::refineDetectedMarkers(grey, board, corners, ids, rejected, cv::noArray(),
+                                     cv::noArray(), 10.0f, 3.0f, true, cv::noArray(),
+                                     impl_->parameters);
+  }
+  if (rejected_count) *rejected_count = static_cast<int>(rejected.size());
+  std::vector<MarkerCorners> markers;
+  for (size_t i = 0; i < ids.size(); ++i) {
+    MarkerCorners m;
+    m.id = ids[i];
+    for (int k = 0; k < 4; ++k) m.corners_px[k] = Eigen::Vector2d(corners[i][k].x, corners[i][k].y);
+    markers.push_back(m);
+  }
+  return markers;
+}
+
+std::vector<MarkerCorners> BoardDetector::DetectAprilTag(const cv::Mat& grey) const {
+  std::vector<MarkerCorners> markers;
+  if (!impl_->family) return markers;
+  RELIT_CHECK(grey.type() == CV_8UC1 && grey.isContinuous());
+  apriltag_detector_t* detector = impl_->Acquire();
+  image_u8_t image{grey.cols, grey.rows, static_cast<int32_t>(grey.step), grey.data};
+  zarray_t* detections = apriltag_detector_detect(detector, &image);
+  const int board_markers = marker_count();
+  for (int i = 0; i < zarray_size(detections); ++i) {
+    apriltag_detection_t* d = nullptr;
+    zarray_get(detections, i, &d);
+    if (d->hamming > 1 || d->id >= board_markers) continue;
+    // libapriltag wraps the corners the other way round: OpenCV's corner k
+    // is libapriltag's corner kOrder[k] (checked in calib_unit_test).
+    static constexpr int kOrder[4] = {1, 0, 3, 2};
+    MarkerCorners m;
+    m.id = d->id;
+    for (int k = 0; k < 4; ++k) m.corners_px[k] = Eigen::Vector2d(d->p[kOrder[k]][0], d->p[kOrder[k]][1]);
+    markers.push_back(m);
+  }
+  apriltag_detections_destroy(detections);
+  impl_->Release(detector);
+  return markers;
+}
+
+BoardObservation BoardDetector::Detect(const cv::Mat& grey) const {
+  BoardObservation obs;
+  const DetectOptions& o = impl_->options;
+  auto start = std::chrono::steady_clock::now();
+  obs.markers = DetectOpenCv(grey, &obs.rejected_candidates);
+  obs.opencv_ms = MillisecondsSince(start);
+  obs.markers_opencv = static_cast<int>(obs.markers.size());
+  const bool run_apriltag =
+      apriltag_available() &&
+      (o.apriltag == "always" ||
+       (o.apriltag == "second_pass" && obs.markers_opencv < o.apriltag_below_fraction * marker_count()));
+  if (run_apriltag) {
+    start = std::chrono::steady_clock::now();
+    const std::vector<MarkerCorners> extra = DetectAprilTag(grey);
+    obs.apriltag_ms = MillisecondsSince(start);
+    obs.apriltag_ran = true;
+    obs.markers_apriltag = static_cast<int>(extra.size());
+    std::set<int> have;
+    for (const MarkerCorners& m : obs.markers) have.insert(m.id);
+    for (const MarkerCorners& m : extra) {
+      if (have.insert(m.id).second) {
+        obs.markers.push_back(m);
+        ++obs.markers_apriltag_added;
+      }
+    }
+  }
+  if (obs.markers.empty()) return obs;
+
+  start = std::chrono::steady_clock::now();
+  std::vector<int> ids;
+  std::vector<std::vector<cv::Point2f>> corners;
+  for (const MarkerCorners& m : obs.markers) {
+    ids.push_back(m.id);
+    std::vector<cv::Point2f> c;
+    for (const Eigen::Vector2d& p : m.corners_px) c.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+    corners.push_back(c);
+  }
+  std::vector<cv::Point2f> charuco_corners;
+  std::vector<int> charuco_ids;
+  cv::aruco::interpolateCornersCharuco(corners, ids, grey, impl_->board, charuco_corners, charuco_ids);
+  if (!charuco_corners.empty()) {
+    // interpolateCornersCharuco stops at 0.1 px and keeps a bias from the
+    // contour-based marker corners: refine once more (docs/synthetic.md).
+    const int w = o.subpix_half_window_px;
+    cv::cornerSubPix(grey, charuco_corners, cv::Size(w, w), cv::Size(-1, -1),
+                     cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3));
+  }
+  for (size_t i = 0; i < charuco_ids.size(); ++i) {
+    obs.corner_ids.push_back(charuco_ids[i]);
+    obs.corners_px.emplace_back(charuco_corners[i].x, charuco_corners[i].y);
+  }
+  obs.opencv_ms += MillisecondsSince(start);
+  return obs;
+}
+
+double MeasureMarkerRatio(const BoardObservation& obs, const Intrinsics& intrinsics,
+                          const BoardSpec& spec) {
+  if (obs.corner_ids.size() < 6 || obs.markers.empty()) return -1;
+  const auto board = MakeCharucoBoard(spec);
+  // Board-plane coordinates in units of squares, undistorted normalised image points.
+  auto normalise = [&](const Eigen::Vector2d& px) {
+    const Eigen::Vector2d d((px.x() - intrinsics.cx) / intrinsics.fx, (px.y() - intrinsics.cy) / intrinsics.fy);
+    const Eigen::Vector2d u = Undistort(intrinsics.distortion, d);
+    return cv::Point2d(u.x(), u.y());
+  };
+  std::vector<cv::Point2d> plane, image;
+  for (size_t i = 0; i < obs.corner_ids.size(); ++i) {
+    const cv::Point3f& p = board->chessboardCorners[obs.corner_ids[i]];
+    plane.emplace_back(p.x / spec.square_length_m, p.y / spec.square_length_m);
+    image.push_back(normalise(obs.corners_px[i]));
+  }
+  const cv::Mat h = cv::findHomography(image, plane, 0);
+  if (h.empty()) return -1;
+  std::vector<double> ratios;
+  for (const MarkerCorners& m : obs.markers) {
+    std::vector<cv::Point2d> in, out;
+    for (const Eigen::Vector2d& c : m.corners_px) in.push_back(normalise(c));
+    cv::perspectiveTransform(in, out, h);
+    double side = 0;
+    for (int k = 0; k < 4; ++k) side += cv::norm(out[k] - out[(k + 1) % 4]);
+    ratios.push_back(side / 4);
+  }
+  std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
+  return ratios[ratios.size() / 2];
+}
+
+}  // namespace relit::calib

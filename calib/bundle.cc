@@ -1,0 +1,260 @@
+#include "calib/bundle.h"
+
+#include <cmath>
+#include <thread>
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+#include <spdlog/spdlog.h>
+
+#include "core/error.h"
+
+namespace relit::calib {
+
+namespace {
+
+// Lens block: fx, fy, cx, cy, k1, k2, p1, p2, k3.
+constexpr int kLensSize = 9;
+
+template <typename T>
+void Project(const T* q_xyzw, const T* t, const T* lens, const T* point, bool square, T* pixel) {
+  const Eigen::Map<const Eigen::Quaternion<T>> q(q_xyzw);
+  const Eigen::Matrix<T, 3, 1> p =
+      q * Eigen::Map<const Eigen::Matrix<T, 3, 1>>(point) + Eigen::Map<const Eigen::Matrix<T, 3, 1>>(t);
+  const T x = p.x() / p.z(), y = p.y() / p.z();
+  const T r2 = x * x + y * y;
+  const T radial = T(1) + r2 * (lens[4] + r2 * (lens[5] + r2 * lens[8]));
+  const T xd = x * radial + T(2) * lens[6] * x * y + lens[7] * (r2 + T(2) * x * x);
+  const T yd = y * radial + lens[6] * (r2 + T(2) * y * y) + T(2) * lens[7] * x * y;
+  pixel[0] = lens[0] * xd + lens[2];
+  pixel[1] = (square ? lens[0] : lens[1]) * yd + lens[3];
+}
+
+struct CornerCost {
+  Eigen::Vector2d observed;
+  Eigen::Vector3d world;
+  bool square;
+  template <typename T>
+  bool operator()(const T* q, const T* t, const T* lens, T* residual) const {
+    const T point[3] = {T(world.x()), T(world.y()), T(world.z())};
+    T pixel[2];
+    Project(q, t, lens, point, square, pixel);
+    residual[0] = pixel[0] - T(observed.x());
+    residual[1] = pixel[1] - T(observed.y());
+    return true;
+  }
+};
+
+struct PointCost {
+  Eigen::Vector2d observed;
+  double weight;
+  bool square;
+  template <typename T>
+  bool operator()(const T* q, const T* t, const T* lens, const T* point, T* residual) const {
+    T pixel[2];
+    Project(q, t, lens, point, square, pixel);
+    residual[0] = T(weight) * (pixel[0] - T(observed.x()));
+    residual[1] = T(weight) * (pixel[1] - T(observed.y()));
+    return true;
+  }
+};
+
+struct Blocks {
+  std::vector<std::array<double, 4>> q;  // x, y, z, w (Eigen order)
+  std::vector<std::array<double, 3>> t;
+  std::map<std::string, std::array<double, kLensSize>> lens;
+};
+
+Blocks ToBlocks(const BundleProblem& p) {
+  Blocks b;
+  for (const BundleFrame& f : p.frames) {
+    const Eigen::Quaterniond& q = f.cam_from_world.rotation;
+    b.q.push_back({q.x(), q.y(), q.z(), q.w()});
+    const Eigen::Vector3d& t = f.cam_from_world.translation;
+    b.t.push_back({t.x(), t.y(), t.z()});
+  }
+  for (const auto& [name, in] : p.devices) {
+    const Distortion& d = in.distortion;
+    b.lens[name] = {in.fx, in.fy, in.cx, in.cy, d.k1, d.k2, d.p1, d.p2, d.k3};
+  }
+  return b;
+}
+
+void FromBlocks(const Blocks& b, BundleProblem* p) {
+  for (size_t i = 0; i < p->frames.size(); ++i) {
+    const Eigen::Quaterniond q(b.q[i][3], b.q[i][0], b.q[i][1], b.q[i][2]);
+    p->frames[i].cam_from_world = Rigid3(q, Eigen::Vector3d(b.t[i][0], b.t[i][1], b.t[i][2]));
+  }
+  for (auto& [name, in] : p->devices) {
+    const auto& l = b.lens.at(name);
+    in.fx = l[0], in.fy = p->square_pixels ? l[0] : l[1], in.cx = l[2], in.cy = l[3];
+    in.distortion = {l[4], l[5], l[6], l[7], l[8]};
+  }
+}
+
+double Error(const BundleProblem& p, int frame, const Eigen::Vector3d& world, const Eigen::Vector2d& px) {
+  const Camera camera(p.devices.at(p.frames[frame].device), p.frames[frame].cam_from_world);
+  const Eigen::Vector3d c = camera.cam_from_world() * world;
+  if (!(c.z() > 0)) return std::numeric_limits<double>::infinity();
+  return (camera.ProjectCameraPoint(c) - px).norm();
+}
+
+// Masks of inlier observations: corners[frame][k], points[point][k].
+struct Inliers {
+  std::vector<std::vector<bool>> corners, points;
+};
+
+Inliers AllInliers(const BundleProblem& p) {
+  Inliers in;
+  for (const BundleFrame& f : p.frames) in.corners.emplace_back(f.corner_ids.size(), true);
+  for (const BundlePoint& pt : p.points) in.points.emplace_back(pt.observations.size(), true);
+  return in;
+}
+
+ceres::Solver::Summary Solve(BundleProblem* p, const Inliers& inliers, const BundleOptions& o) {
+  Blocks b = ToBlocks(*p);
+  std::vector<std::array<double, 3>> points;
+  for (const BundlePoint& pt : p->points) points.push_back({pt.position_m.x(), pt.position_m.y(), pt.position_m.z()});
+  ceres::Problem problem;
+  std::vector<bool> used_frame(p->frames.size(), false);
+  std::map<std::string, bool> used_lens;
+  for (size_t f = 0; f < p->frames.size(); ++f) {
+    const BundleFrame& frame = p->frames[f];
+    if (!frame.posed) continue;
+    double* lens = b.lens.at(frame.device).data();
+    for (size_t k = 0; k < frame.corner_ids.size(); ++k) {
+      if (!inliers.corners[f][k]) continue;
+      auto* cost = new ceres::AutoDiffCostFunction<CornerCost, 2, 4, 3, kLensSize>(
+          new CornerCost{frame.corners_px[k], p->corners_world.at(frame.corner_ids[k]), p->square_pixels});
+      problem.AddResidualBlock(cost, new ceres::HuberLoss(o.huber_px), b.q[f].data(), b.t[f].data(), lens);
+      used_frame[f] = true;
+      used_lens[frame.device] = true;
+    }
+  }
+  for (size_t i = 0; i < p->points.size(); ++i) {
+    // A point needs two inlier observations, else its depth is free.
+    int usable = 0;
+    for (size_t k = 0; k < p->points[i].observations.size(); ++k) {
+      usable += inliers.points[i][k] && p->frames[p->points[i].observations[k].frame].posed;
+    }
+    if (usable < 2) continue;
+    for (size_t k = 0; k < p->points[i].observations.size(); ++k) {
+      const PointObservation& obs = p->points[i].observations[k];
+      const BundleFrame& frame = p->frames[obs.frame];
+      if (!inliers.points[i][k] || !frame.posed || o.point_weight <= 0) continue;
+      auto* cost = new ceres::AutoDiffCostFunction<PointCost, 2, 4, 3, kLensSize, 3>(
+          new PointCost{obs.pixel_px, o.point_weight, p->square_pixels});
+      problem.AddResidualBlock(cost, new ceres::HuberLoss(o.huber_px * o.point_weight),
+                               b.q[obs.frame].data(), b.t[obs.frame].data(),
+                               b.lens.at(frame.device).data(), points[i].data());
+      used_frame[obs.frame] = true;
+      used_lens[frame.device] = true;
+    }
+  }
+  for (size_t f = 0; f < p->frames.size(); ++f) {
+    if (used_frame[f]) problem.SetManifold(b.q[f].data(), new ceres::EigenQuaternionManifold);
+  }
+  for (auto& [name, lens] : b.lens) {
+    if (!used_lens[name]) continue;
+    if (p->fixed_lens.count(name) && p->fixed_lens.at(name)) {
+      problem.SetParameterBlockConstant(lens.data());
+    } else {
+      std::vector<int> constant;
+      if (p->square_pixels) constant.push_back(1);
+      if (!p->refine_tangential) {
+        constant.push_back(6);
+        constant.push_back(7);
+      }
+      if (!p->refine_k3) constant.push_back(8);
+      if (!constant.empty()) problem.SetManifold(lens.data(), new ceres::SubsetManifold(kLensSize, constant));
+    }
+  }
+  ceres::Solver::Options options;
+  // A few dozen frames: the dense Schur complement is small and robust.
+  options.linear_solver_type = p->frames.size() <= 400 ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
+  options.max_num_iterations = o.max_iterations;
+  options.num_threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  options.function_tolerance = 1e-9;
+  options.parameter_tolerance = 1e-9;
+  options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  if (problem.NumResidualBlocks() > 0) ceres::Solve(options, &problem, &summary);
+  FromBlocks(b, p);
+  for (size_t i = 0; i < p->points.size(); ++i) {
+    p->points[i].position_m = Eigen::Vector3d(points[i][0], points[i][1], points[i][2]);
+  }
+  for (size_t f = 0; f < p->frames.size(); ++f) {
+    if (!used_frame[f]) p->frames[f].posed = false;
+  }
+  return summary;
+}
+
+BundleStats Evaluate(const BundleProblem& p, double outlier_px, Inliers* inliers) {
+  BundleStats s;
+  std::map<std::string, std::pair<double, int>> by_device;
+  double corner_sum = 0, point_sum = 0;
+  s.frame_corner_rms_px.assign(p.frames.size(), 0.0);
+  for (size_t f = 0; f < p.frames.size(); ++f) {
+    const BundleFrame& frame = p.frames[f];
+    if (!frame.posed) continue;
+    double frame_sum = 0;
+    int frame_count = 0;
+    for (size_t k = 0; k < frame.corner_ids.size(); ++k) {
+      const double e = Error(p, static_cast<int>(f), p.corners_world.at(frame.corner_ids[k]), frame.corners_px[k]);
+      const bool inlier = e <= outlier_px;
+      if (inliers) inliers->corners[f][k] = inlier;
+      if (!inlier) {
+        ++s.corner_outliers;
+        continue;
+      }
+      corner_sum += e * e;
+      frame_sum += e * e;
+      ++frame_count;
+      ++s.corner_observations;
+      by_device[frame.device].first += e * e;
+      by_device[frame.device].second += 1;
+    }
+    if (frame_count > 0) s.frame_corner_rms_px[f] = std::sqrt(frame_sum / frame_count);
+  }
+  for (size_t i = 0; i < p.points.size(); ++i) {
+    for (size_t k = 0; k < p.points[i].observations.size(); ++k) {
+      const PointObservation& obs = p.points[i].observations[k];
+      if (!p.frames[obs.frame].posed) continue;
+      const double e = Error(p, obs.frame, p.points[i].position_m, obs.pixel_px);
+      const bool inlier = e <= outlier_px;
+      if (inliers) inliers->points[i][k] = inlier;
+      if (!inlier) {
+        ++s.point_outliers;
+        continue;
+      }
+      point_sum += e * e;
+      ++s.point_observations;
+    }
+  }
+  if (s.corner_observations > 0) s.corner_rms_px = std::sqrt(corner_sum / s.corner_observations);
+  if (s.point_observations > 0) s.point_rms_px = std::sqrt(point_sum / s.point_observations);
+  for (const auto& [device, sum] : by_device) s.corner_rms_px_by_device[device] = std::sqrt(sum.first / sum.second);
+  return s;
+}
+
+}  // namespace
+
+BundleStats RefineBundle(BundleProblem* problem, const BundleOptions& options) {
+  RELIT_CHECK(problem->corners_world.size() > 0);
+  Inliers inliers = AllInliers(*problem);
+  ceres::Solver::Summary first = Solve(problem, inliers, options);
+  Evaluate(*problem, options.outlier_px, &inliers);
+  ceres::Solver::Summary second = Solve(problem, inliers, options);
+  BundleStats stats = Evaluate(*problem, options.outlier_px, nullptr);
+  stats.iterations = static_cast<int>(first.iterations.size() + second.iterations.size());
+  stats.initial_cost = first.initial_cost;
+  stats.final_cost = second.final_cost;
+  spdlog::debug("bundle: {}", second.BriefReport());
+  return stats;
+}
+
+BundleStats EvaluateBundle(const BundleProblem& problem, double outlier_px) {
+  return Evaluate(problem, outlier_px, nullptr);
+}
+
+}  // namespace relit::calib

@@ -1,0 +1,75 @@
+// The joint refinement (Ceres): camera poses of every frame, the lens of
+// each device (fx, fy, cx, cy, k1, k2, p1, p2 and optionally k3), SfM points,
+// with ChArUco corner observations at their known world positions (which fix
+// the metric world frame) and SfM point observations, under a Huber loss.
+// Observations beyond an outlier threshold are dropped and the problem is
+// solved again.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/camera.h"
+
+namespace relit::calib {
+
+struct PointObservation {
+  int frame = 0;               // index into BundleProblem::frames
+  Eigen::Vector2d pixel_px;    // distorted pixels, OpenCV convention
+};
+
+struct BundlePoint {
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();   // world
+  std::vector<PointObservation> observations;
+};
+
+struct BundleFrame {
+  std::string device;
+  bool posed = false;                    // has an initial pose: takes part in the problem
+  Rigid3 cam_from_world;
+  std::vector<int> corner_ids;           // ChArUco corners seen
+  std::vector<Eigen::Vector2d> corners_px;
+};
+
+struct BundleProblem {
+  std::vector<Eigen::Vector3d> corners_world;   // CharucoCornersWorld
+  std::map<std::string, Intrinsics> devices;
+  std::map<std::string, bool> fixed_lens;       // device -> keep intrinsics constant
+  bool refine_k3 = false;
+  bool square_pixels = false;                   // fy tied to fx
+  bool refine_tangential = true;                // false: p1, p2 held
+  std::vector<BundleFrame> frames;
+  std::vector<BundlePoint> points;
+};
+
+struct BundleOptions {
+  double huber_px = 1.0;
+  double outlier_px = 3.0;
+  double point_weight = 0.5;
+  int max_iterations = 100;
+  int threads = 0;
+};
+
+struct BundleStats {
+  double corner_rms_px = 0;              // board corners (inliers)
+  double point_rms_px = 0;               // SfM points (inliers)
+  int corner_observations = 0, point_observations = 0;
+  int corner_outliers = 0, point_outliers = 0;
+  std::map<std::string, double> corner_rms_px_by_device;
+  std::vector<double> frame_corner_rms_px;   // per frame (0 without corners)
+  int iterations = 0;
+  double initial_cost = 0, final_cost = 0;
+};
+
+// Refines `problem` in place. Frames with posed = false are left out; a
+// frame whose observations all turn out to be outliers loses its pose
+// (posed = false afterwards).
+BundleStats RefineBundle(BundleProblem* problem, const BundleOptions& options);
+
+// Reprojection residual statistics without refining (for reports).
+BundleStats EvaluateBundle(const BundleProblem& problem, double outlier_px);
+
+}  // namespace relit::calib

@@ -1,0 +1,322 @@
+#include "calib/calib.h"
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+#include <tbb/parallel_for.h>
+
+#include "calib/calib_steps.h"
+#include "calib/colmap_sfm.h"
+#include "calib/lights.h"
+#include "calib/undistort.h"
+#include "core/atomic_output.h"
+#include "core/error.h"
+#include "core/json_file.h"
+#include "core/log.h"
+#include "core/progress.h"
+#include "core/run_record.h"
+#include "core/workspace.h"
+
+namespace relit::calib {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kReportKind = "calib_report";
+constexpr int kReportVersion = 1;
+
+// Detaches the log file from the output folder when the run ends either way.
+struct LogFileScope {
+  spdlog::level::level_enum level;
+  ~LogFileScope() { InitLogging("", level); }
+};
+
+BundleOptions ToBundleOptions(const CalibOptions& o, bool with_points) {
+  BundleOptions b;
+  b.huber_px = o.refine.huber_px;
+  b.outlier_px = o.refine.outlier_px;
+  b.point_weight = with_points ? o.sfm.point_weight : 0.0;
+  b.max_iterations = o.refine.max_iterations;
+  b.threads = o.sfm.threads;
+  return b;
+}
+
+nlohmann::json StatsJson(const BundleStats& s) {
+  return {{"corner_rms_px", s.corner_rms_px},
+          {"corner_rms_px_by_device", s.corner_rms_px_by_device},
+          {"corner_observations", s.corner_observations},
+          {"corner_outliers", s.corner_outliers},
+          {"point_rms_px", s.point_rms_px},
+          {"point_observations", s.point_observations},
+          {"point_outliers", s.point_outliers},
+          {"iterations", s.iterations}};
+}
+
+std::string FrameFile(const std::string& dir, const CaptureFrame& frame, const std::string& ext) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "%06d.", frame.index);
+  return "calib/" + dir + "/" + name + ext;
+}
+
+}  // namespace
+
+CalibSummary RunCalibImpl(const CalibOptions& options) {
+  options.Check();
+  const auto start = std::chrono::steady_clock::now();
+  const spdlog::level::level_enum level = ParseLogLevel(options.log_level);
+  const fs::path workspace(options.workspace);
+  const CaptureInput input = ReadCaptureFile(options.workspace);
+  AtomicDir out(workspace / "calib");
+  const fs::path root = out.path();
+  LogFileScope log_scope{level};
+  InitLogging((root / "calib.log").string(), level);
+  RunRecord record("relit-calib");
+  record.SetOptions(options.ToJson());
+  record.AddInput("capture", (workspace / "capture" / "capture.json").string());
+  nlohmann::json report;
+  std::map<std::string, double> colmap_timings;
+
+  // 1. Board detection on every frame of both phones.
+  const BoardDetector detector(options.board, options.detect);
+  if (options.detect.apriltag != "off" && !detector.apriltag_available()) {
+    spdlog::info("detect: {} is not an AprilTag dictionary: OpenCV only", options.board.dictionary);
+  }
+  std::vector<CaptureFrame> all = input.view;
+  all.insert(all.end(), input.light.begin(), input.light.end());
+  std::vector<CalibFrame> frames;
+  {
+    auto timer = record.Time("detect");
+    frames = DetectAll(options.workspace, all, detector, options.detect.threads, "detect board");
+  }
+  RequireBoardSeen(frames, options.board, detector, options.detect.min_corners);
+  for (const std::string device : {"view", "light"}) {
+    report["detection"][device] = DetectionReport(frames, device, options.detect.min_corners);
+  }
+
+  // 2. Lenses and board poses.
+  BundleProblem problem;
+  problem.corners_world = CharucoCornersWorld(options.board);
+  problem.refine_k3 = options.intrinsics.refine_k3;
+  problem.square_pixels = options.intrinsics.square_pixels;
+  problem.refine_tangential = options.intrinsics.refine_tangential;
+  {
+    auto timer = record.Time("intrinsics");
+    const std::map<std::string, std::pair<int, int>> sizes = {
+        {"view", {input.view_width_px, input.view_height_px}},
+        {"light", {input.light_width_px, input.light_height_px}}};
+    for (const auto& [device, size] : sizes) {
+      bool fixed = false;
+      const BoardCalibration c = InitialLens(frames, device, size.first, size.second, options, detector,
+                                             &fixed, &report["intrinsics_initial"][device]);
+      problem.devices[device] = c.intrinsics;
+      problem.fixed_lens[device] = fixed;
+    }
+  }
+  int board_posed = 0;
+  for (const CalibFrame& f : frames) {
+    BundleFrame b;
+    b.device = f.capture.device;
+    b.corner_ids = f.board.corner_ids;
+    b.corners_px = f.board.corners_px;
+    double rms = 0;
+    b.posed = BoardPose(f.board, problem.devices.at(b.device), options.board, options.detect.min_corners,
+                        &b.cam_from_world, &rms);
+    board_posed += b.posed;
+    problem.frames.push_back(b);
+  }
+  std::vector<bool> posed_by_board;
+  for (const BundleFrame& b : problem.frames) posed_by_board.push_back(b.posed);
+  BundleStats stats;
+  {
+    auto timer = record.Time("refine_board");
+    stats = RefineBundle(&problem, ToBundleOptions(options, false));
+  }
+  report["refine_board_only"] = StatsJson(stats);
+  spdlog::info("refine (board only): {} frames, corner RMS {:.3f} px", board_posed, stats.corner_rms_px);
+  // The board's shape is known now: a wrong board config fails before COLMAP runs.
+  CalibSummary summary;
+  report["scale_check"] = CheckBoardScale(frames, problem, options, &summary.marker_ratio_measured);
+
+  // 3. Structure from motion, aligned to the board, then the joint refinement.
+  if (options.sfm.enabled) {
+    auto timer = record.Time("sfm");
+    report["sfm"] = AddStructureFromMotion(frames, options.workspace, (root / "sfm").string(), options,
+                                           &problem, &colmap_timings);
+    for (const auto& [step, seconds] : colmap_timings) record.AddTiming(step, seconds);
+    auto refine_timer = record.Time("refine_joint");
+    stats = RefineBundle(&problem, ToBundleOptions(options, true));
+  } else {
+    report["sfm"] = {{"ran", false}};
+  }
+  report["refine"] = StatsJson(stats);
+
+  // 4. Checks of the result.
+  for (size_t i = 0; i < frames.size(); ++i) {
+    summary.frames[frames[i].capture.device]++;
+    summary.registered[frames[i].capture.device] += problem.frames[i].posed;
+  }
+  for (const std::string device : {"view", "light"}) {
+    RELIT_REQUIRE(summary.registered[device] > 0, "no phone ", device == "view" ? "V" : "L",
+                  " frame could be registered (board or SfM): see ", (workspace / "calib").string(),
+                  " after fixing the capture");
+    const double rms = stats.corner_rms_px_by_device.count(device) ? stats.corner_rms_px_by_device.at(device) : 0;
+    RELIT_REQUIRE(rms <= options.refine.max_corner_rms_px, "calibration rejected: board corners of phone ",
+                  device == "view" ? "V" : "L", " reproject with RMS ", rms, " px (refine.max_corner_rms_px = ",
+                  options.refine.max_corner_rms_px, "). Check the board settings (squares_x/squares_y, "
+                  "square_length_m, marker_length_m) in the --config file");
+  }
+
+  // 5. Light positions for every registered phone V frame.
+  std::vector<TimedPose> light_poses;
+  std::vector<TimedName> view_frames;
+  std::vector<Eigen::Vector3d> view_centres;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    if (!problem.frames[i].posed) continue;
+    if (frames[i].capture.device == "light") {
+      light_poses.push_back({frames[i].capture.time_s, problem.frames[i].cam_from_world});
+    } else {
+      view_frames.push_back({frames[i].capture.name, frames[i].capture.time_s});
+      view_centres.push_back(problem.frames[i].cam_from_world.Inverse().translation);
+    }
+  }
+  const Eigen::Vector3d flash_offset(options.light.flash_offset_m[0], options.light.flash_offset_m[1],
+                                     options.light.flash_offset_m[2]);
+  const LightsFile lights = InterpolateLights(view_frames, light_poses, flash_offset, options.light.max_gap_s);
+  std::vector<Eigen::Vector3d> light_positions;
+  nlohmann::json unreliable = nlohmann::json::array();
+  double max_gap = 0;
+  for (const FrameLight& l : lights.frames) {
+    light_positions.push_back(l.position_m);
+    max_gap = std::max(max_gap, l.nearest_light_gap_s);
+    if (!l.reliable) unreliable.push_back({{"view_frame", l.view_frame}, {"gap_s", l.nearest_light_gap_s}});
+  }
+  summary.lights = static_cast<int>(lights.frames.size());
+  summary.unreliable_lights = static_cast<int>(unreliable.size());
+  report["lights"] = {{"frames", lights.frames.size()},
+                      {"registered_light_frames", light_poses.size()},
+                      {"max_gap_s", max_gap},
+                      {"max_gap_allowed_s", options.light.max_gap_s},
+                      {"unreliable", unreliable}};
+  report["coverage"] = CoverageSummary(view_centres, light_positions, Eigen::Vector3d::Zero());
+
+  // 6. Undistorted phone V frames and the output files.
+  CamerasFile cameras;
+  cameras.board = options.board;
+  cameras.devices = problem.devices;
+  cameras.undistorted_view = PinholeFor(problem.devices.at("view"), options.undistort.alpha);
+  std::vector<std::pair<std::string, std::string>> model_images;
+  std::vector<Rigid3> model_poses;
+  nlohmann::json unposed = nlohmann::json::array();
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const CaptureFrame& c = frames[i].capture;
+    if (!problem.frames[i].posed) {
+      unposed.push_back(c.name);
+      continue;
+    }
+    CalibratedFrame f;
+    f.name = c.name;
+    f.device = c.device;
+    f.time_s = c.time_s;
+    f.cam_from_world = problem.frames[i].cam_from_world;
+    if (c.device == "view") {
+      f.image_linear = FrameFile("view_linear", c, "exr");
+      f.image_8bit = FrameFile("view", c, "png");
+    }
+    cameras.frames.push_back(f);
+    model_images.push_back({c.image.substr(c.image.find('/') + 1), c.device});
+    model_poses.push_back(f.cam_from_world);
+  }
+  if (options.undistort.write_images) {
+    auto timer = record.Time("undistort");
+    const FrameUndistorter undistorter(problem.devices.at("view"), cameras.undistorted_view);
+    Progress progress("undistort", static_cast<int64_t>(cameras.frames.size()));
+    std::map<std::string, const CaptureFrame*> by_name;
+    for (const CaptureFrame& c : input.view) by_name[c.name] = &c;
+    tbb::parallel_for(size_t(0), cameras.frames.size(), [&](size_t i) {
+      const CalibratedFrame& f = cameras.frames[i];
+      if (f.device != "view") return;
+      const CaptureFrame& c = *by_name.at(f.name);
+      undistorter.Run((workspace / c.linear).string(), (workspace / c.image).string(),
+                      (root / f.image_linear.substr(6)).string(),
+                      (root / f.image_8bit.substr(6)).string());
+      progress.Advance();
+    });
+    progress.Finish();
+  }
+  std::vector<Eigen::Vector3d> points;
+  for (const BundlePoint& p : problem.points) points.push_back(p.position_m);
+  WriteColmapTextModel((root / "model").string(), problem.devices, model_images, model_poses, points);
+  WriteCamerasFile((root / "cameras.json").string(), cameras);
+  WriteLightsFile((root / "lights.json").string(), lights);
+
+  summary.corner_rms_px = stats.corner_rms_px;
+  summary.point_rms_px = stats.point_rms_px;
+  summary.sfm_registered = report["sfm"].value("registered", 0);
+  report["registered"] = {{"view", summary.registered["view"]},
+                          {"view_frames", summary.frames["view"]},
+                          {"light", summary.registered["light"]},
+                          {"light_frames", summary.frames["light"]},
+                          {"frames_posed_by_board", board_posed},
+                          {"unposed", unposed}};
+  report["intrinsics"] = {{"view", ToJson(problem.devices.at("view"))},
+                          {"light", ToJson(problem.devices.at("light"))},
+                          {"undistorted_view", ToJson(cameras.undistorted_view)}};
+  report["timings_s"] = record.ToJson()["timings_s"];
+  WriteJsonFile((root / "calib_report.json").string(), kReportKind, kReportVersion, report);
+
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  spdlog::info("timings: detection OpenCV {:.2f} ms/frame, libapriltag {} | {}",
+               report["detection"]["view"]["opencv_ms_per_frame"].get<double>(),
+               report["detection"]["view"]["apriltag_frames"].get<int>() > 0
+                   ? fmt::format("{:.2f} ms/frame", report["detection"]["view"]["apriltag_ms_per_frame"].get<double>())
+                   : std::string("not run"),
+               report["timings_s"].dump());
+  spdlog::info("relit-calib: wrote {} (phone V {}/{} frames, phone L {}/{} registered, corner RMS {:.3f} px, "
+               "SfM point RMS {:.3f} px, {} lights, {} unreliable) in {:.1f} s",
+               (workspace / "calib").string(), summary.registered["view"], summary.frames["view"],
+               summary.registered["light"], summary.frames["light"], summary.corner_rms_px, summary.point_rms_px,
+               summary.lights, summary.unreliable_lights, summary.seconds);
+  record.Set("registered", summary.registered);
+  record.Set("corner_rms_px", summary.corner_rms_px);
+  record.Write((root / "run.json").string());
+  InitLogging("", level);  // close the log file before the folder moves
+  out.Commit();
+  summary.out_dir = (workspace / "calib").string();
+  return summary;
+}
+
+int RunCalib(int argc, char** argv) {
+  CLI::App app{"relit-calib: calibrate both phones against the ChArUco board, register every frame "
+               "(board + COLMAP), place phone L's flash for every phone V frame. Reads W/capture, "
+               "writes W/calib. See docs/calib.md."};
+  std::string workspace, config, log_level;
+  bool no_sfm = false;
+  app.add_option("--workspace", workspace, "workspace folder W (reads W/capture, writes W/calib)");
+  app.add_option("--config", config, "YAML file with calib options (unknown keys are errors)")
+      ->check(CLI::ExistingFile);
+  app.add_flag("--no-sfm", no_sfm, "board poses only, no COLMAP (sfm.enabled: false)");
+  app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  CalibOptions options;
+  if (!config.empty()) {
+    OptionsReader reader = OptionsReader::FromFile(config);
+    options.Read(reader);
+  }
+  if (!workspace.empty()) options.workspace = workspace;
+  if (no_sfm) options.sfm.enabled = false;
+  if (!log_level.empty()) options.log_level = log_level;
+  SetVerbosity(ParseLogLevel(options.log_level));
+  options.Check();
+  RunCalibImpl(options);
+  return 0;
+}
+
+}  // namespace relit::calib

@@ -1,0 +1,117 @@
+// Options of the calib stage (relit-calib): the printed board, detection,
+// intrinsics, COLMAP structure from motion, the joint refinement, light
+// interpolation and undistortion. Defaults live here; a YAML file (unknown
+// keys are errors) and command-line flags go on top, then Check(). See
+// docs/calib.md for the meaning of every option.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/board.h"
+#include "core/options.h"
+
+namespace relit::calib {
+
+// Reads a `board:` section onto `board` (keys of BoardSpec) and checks it.
+void ReadBoard(OptionsReader& reader, BoardSpec* board);
+
+struct DetectOptions {
+  // libapriltag use: "off", "second_pass" (frames where OpenCV finds fewer
+  // than apriltag_below_fraction of the board's markers) or "always" (both
+  // detectors on every frame, markers merged). Only for AprilTag
+  // dictionaries; ignored (with a note) for ArUco ones.
+  std::string apriltag = "second_pass";
+  double apriltag_below_fraction = 0.8;
+  int subpix_half_window_px = 3;   // cv::cornerSubPix half window on ChArUco corners
+  int min_corners = 6;             // fewer corners: the frame gets no board pose
+  int threads = 0;                 // 0 = all cores
+
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+struct IntrinsicsOptions {
+  bool refine_k3 = false;          // k3 stays 0 unless set (poorly constrained on phones)
+  bool square_pixels = true;       // fx = fy (phone sensors have square pixels)
+  bool refine_tangential = false;  // p1, p2 stay 0 unless set (they trade off with the principal point)
+  // Optional folders of board images (e.g. frames of a board clip) per
+  // device; when given, the device's intrinsics come from
+  // calibrateCameraCharuco on them and stay fixed in the refinement.
+  std::string view_board_images;
+  std::string light_board_images;
+
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+struct SfmOptions {
+  bool enabled = true;             // false: board poses only (no COLMAP)
+  std::string colmap = "colmap";   // the COLMAP executable
+  int sequential_overlap = 10;     // neighbours matched in each phone's frame order
+  int ransac_trials = 1000;        // COLMAP geometric verification trials per image pair
+  double cross_pair_max_angle_deg = 35.0;  // V/L frame pairs matched across phones
+  int cross_pairs_per_frame = 4;
+  int min_registered = 6;          // fewer registered images: SfM failed
+  double align_inlier_m = 0.02;    // camera-centre distance for the similarity RANSAC
+  double point_weight = 0.5;       // SfM point residuals relative to board corners
+  int threads = 0;                 // 0 = all cores
+
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+struct RefineOptions {
+  double huber_px = 1.0;           // robust loss scale
+  double outlier_px = 3.0;         // observations beyond this are dropped, then solved again
+  int max_iterations = 100;
+  double max_corner_rms_px = 1.0;  // board-corner RMS above this: calibration rejected
+  double max_ratio_error = 0.04;   // |measured/specified marker-to-square ratio - 1|
+
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+struct LightOptions {
+  std::vector<double> flash_offset_m = {0.01, 0.0, 0.0};  // in phone L's camera frame
+  double max_gap_s = 0.05;         // nearest registered L frame further: unreliable
+
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+struct UndistortOptions {
+  // 0: the pinhole image only holds valid pixels (crops), 1: keeps every
+  // source pixel (black borders). cv::getOptimalNewCameraMatrix's alpha.
+  double alpha = 0.0;
+  bool write_images = true;
+
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+struct CalibOptions {
+  std::string workspace;           // reads W/capture, writes W/calib
+  BoardSpec board;
+  DetectOptions detect;
+  IntrinsicsOptions intrinsics;
+  SfmOptions sfm;
+  RefineOptions refine;
+  LightOptions light;
+  UndistortOptions undistort;
+  std::string log_level = "info";
+
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+}  // namespace relit::calib

@@ -1,0 +1,60 @@
+// The steps of relit-calib between reading capture.json and writing the
+// outputs: board detection on all frames, the first lens estimates, the
+// COLMAP model aligned to the board and added to the bundle problem, and the
+// board scale check. Each step returns its part of calib_report.json.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "calib/board_detect.h"
+#include "calib/board_pose.h"
+#include "calib/bundle.h"
+#include "calib/calib_options.h"
+#include "calib/capture_file.h"
+
+namespace relit::calib {
+
+struct CalibFrame {
+  CaptureFrame capture;
+  BoardObservation board;
+};
+
+// Detects the board in every frame (in parallel, with a progress bar).
+// `workspace` is the root the frame paths are relative to.
+std::vector<CalibFrame> DetectAll(const std::string& workspace, const std::vector<CaptureFrame>& frames,
+                                  const BoardDetector& detector, int threads, const std::string& label);
+
+// Throws the "board never detected" error when no frame shows at least
+// `min_corners` ChArUco corners, with the markers found and the dictionary.
+void RequireBoardSeen(const std::vector<CalibFrame>& frames, const BoardSpec& spec,
+                      const BoardDetector& detector, int min_corners);
+
+// Detection statistics of one device (counts, ms per frame of each detector).
+nlohmann::json DetectionReport(const std::vector<CalibFrame>& frames, const std::string& device,
+                               int min_corners);
+
+// First lens of `device`: from its board_images folder when set (the lens
+// then stays fixed: *fixed = true), otherwise from the capture frames.
+BoardCalibration InitialLens(const std::vector<CalibFrame>& frames, const std::string& device, int width,
+                             int height, const CalibOptions& options, const BoardDetector& detector,
+                             bool* fixed, nlohmann::json* report);
+
+// Runs COLMAP on the frames, aligns its largest model to the board poses in
+// `problem` (robust similarity on camera centres), gives frames without a
+// board pose their SfM pose and adds the SfM points. `frames[i]` is
+// `problem->frames[i]`. Returns the "sfm" report section.
+nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, const std::string& workspace,
+                                      const std::string& work_dir, const CalibOptions& options,
+                                      BundleProblem* problem, std::map<std::string, double>* timings_s);
+
+// Measures the marker-to-square side ratio over all posed frames and throws
+// when it differs from the configured board by more than
+// refine.max_ratio_error. Returns the "scale_check" report section.
+nlohmann::json CheckBoardScale(const std::vector<CalibFrame>& frames, const BundleProblem& problem,
+                               const CalibOptions& options, double* measured_ratio);
+
+}  // namespace relit::calib

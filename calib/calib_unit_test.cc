@@ -1,0 +1,262 @@
+// Unit tests of the calib stage's parts on small synthetic inputs: options,
+// board detection (OpenCV and libapriltag) on a warped board image, the
+// marker ratio check, the robust similarity, light interpolation, the
+// bundle adjustment, the COLMAP text model reader and the pinhole choice.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <iostream>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "calib/align.h"
+#include "calib/board_detect.h"
+#include "calib/bundle.h"
+#include "calib/calib_options.h"
+#include "calib/colmap_sfm.h"
+#include "calib/lights.h"
+#include "calib/undistort.h"
+#include "core/error.h"
+
+namespace relit::calib {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(CalibOptionsTest, UnknownKeysAndBadBoardsAreErrors) {
+  CalibOptions o;
+  OptionsReader typo = OptionsReader::FromString("sfm: {enabeld: false}\n", "calib.yaml");
+  EXPECT_THROW(o.Read(typo), Error);
+  CalibOptions even;
+  OptionsReader rows = OptionsReader::FromString("board: {squares_y: 6}\n", "calib.yaml");
+  EXPECT_THROW(even.Read(rows), Error);
+  CalibOptions ok;
+  OptionsReader good = OptionsReader::FromString(
+      "workspace: w\nboard: {squares_x: 9, squares_y: 7, dictionary: DICT_4X4_50}\nlight: {flash_offset_m: [0.01, 0, 0]}\n",
+      "calib.yaml");
+  ok.Read(good);
+  ok.Check();
+  EXPECT_EQ(ok.board.squares_x, 9);
+  EXPECT_EQ(ok.ToJson()["board"]["dictionary"], "DICT_4X4_50");
+  ok.light.flash_offset_m = {0.0, 1.0};
+  EXPECT_THROW(ok.Check(), Error);
+}
+
+// A board image warped by a known homography; `truth` receives the board
+// corners' pixel positions.
+cv::Mat WarpedBoard(const BoardSpec& spec, std::vector<Eigen::Vector2d>* truth) {
+  const double ppm = 4000;  // pixels per metre of the drawn board
+  const int margin = 40;
+  const cv::Mat board = DrawBoardImage(spec, ppm, margin);
+  const cv::Point2f src[4] = {{0, 0}, {float(board.cols), 0}, {float(board.cols), float(board.rows)}, {0, float(board.rows)}};
+  const cv::Point2f dst[4] = {{60, 50}, {1000, 90}, {1060, 700}, {30, 740}};
+  const cv::Mat h = cv::getPerspectiveTransform(src, dst);
+  cv::Mat warped;
+  // Area-averaged warp: supersample 4x, then reduce.
+  cv::Mat big_h = (cv::Mat_<double>(3, 3) << 4, 0, 1.5, 0, 4, 1.5, 0, 0, 1) * h;
+  cv::warpPerspective(board, warped, big_h, cv::Size(4 * 1100, 4 * 800), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 255);
+  cv::resize(warped, warped, cv::Size(1100, 800), 0, 0, cv::INTER_AREA);
+  const auto charuco = MakeCharucoBoard(spec);
+  for (const cv::Point3f& p : charuco->chessboardCorners) {
+    // Board pixel centres: corner (x, y) metres is at margin + x * ppm - 0.5 in pixel-centre coordinates.
+    std::vector<cv::Point2d> in = {{margin + p.x * ppm - 0.5, margin + p.y * ppm - 0.5}}, out;
+    cv::perspectiveTransform(in, out, h);
+    truth->emplace_back(out[0].x, out[0].y);
+  }
+  return warped;
+}
+
+TEST(BoardDetectTest, OpenCvAndAprilTagAgreeAndCornersAreAccurate) {
+  BoardSpec spec;  // 7x5, 40 mm squares, 30 mm AprilTag 36h11 markers
+  std::vector<Eigen::Vector2d> truth;
+  const cv::Mat image = WarpedBoard(spec, &truth);
+  DetectOptions options;
+  options.apriltag = "always";
+  const BoardDetector detector(spec, options);
+  ASSERT_TRUE(detector.apriltag_available());
+  const auto opencv = detector.DetectOpenCv(image);
+  const auto apriltag = detector.DetectAprilTag(image);
+  EXPECT_EQ(static_cast<int>(opencv.size()), detector.marker_count());
+  EXPECT_EQ(static_cast<int>(apriltag.size()), detector.marker_count());
+  int compared = 0;
+  for (const MarkerCorners& a : apriltag) {
+    for (const MarkerCorners& o : opencv) {
+      if (a.id != o.id) continue;
+      for (int k = 0; k < 4; ++k) EXPECT_LT((a.corners_px[k] - o.corners_px[k]).norm(), 3.0) << a.id << " " << k;
+      ++compared;
+    }
+  }
+  EXPECT_EQ(compared, detector.marker_count());
+  const BoardObservation obs = detector.Detect(image);
+  ASSERT_EQ(static_cast<int>(obs.corner_ids.size()), spec.corner_count());
+  double worst = 0;
+  for (size_t i = 0; i < obs.corner_ids.size(); ++i) {
+    worst = std::max(worst, (obs.corners_px[i] - truth[obs.corner_ids[i]]).norm());
+  }
+  EXPECT_LT(worst, 0.3);
+  // Marker-to-square ratio from the image against the configured one.
+  Intrinsics pinhole = Intrinsics::FromFov(1100, 800, 1.0);
+  const double ratio = MeasureMarkerRatio(obs, pinhole, spec);
+  EXPECT_NEAR(ratio, spec.marker_length_m / spec.square_length_m, 0.02);
+  // A board configured with the wrong square size measures differently.
+  BoardSpec wrong = spec;
+  wrong.square_length_m = 0.045;
+  EXPECT_NEAR(MeasureMarkerRatio(obs, pinhole, wrong), 0.75, 0.02);
+}
+
+TEST(AlignTest, RobustSimilarityIgnoresOutliers) {
+  Similarity3 truth;
+  truth.scale = 0.37;
+  truth.rotation = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  truth.translation = Eigen::Vector3d(0.1, -0.2, 0.3);
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0, 1);
+  std::vector<Eigen::Vector3d> src, dst;
+  for (int i = 0; i < 40; ++i) {
+    const Eigen::Vector3d p(noise(rng), noise(rng), noise(rng));
+    src.push_back(p);
+    Eigen::Vector3d q = truth * p;
+    if (i % 5 == 0) q += Eigen::Vector3d(0.3, 0, 0);  // outliers
+    dst.push_back(q);
+  }
+  RobustFit fit;
+  ASSERT_TRUE(FitSimilarityRobust(src, dst, 0.01, 300, &fit));
+  EXPECT_EQ(fit.inlier_count, 32);
+  EXPECT_NEAR(fit.transform.scale, truth.scale, 1e-9);
+  EXPECT_LT((fit.transform.rotation - truth.rotation).norm(), 1e-9);
+  // Camera poses follow the points.
+  const Rigid3 cam_from_model(Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY())), Eigen::Vector3d(0.2, 0.1, 2));
+  const Rigid3 cam_from_world = fit.transform.CamFromWorld(cam_from_model);
+  const Eigen::Vector3d x_model(0.3, -0.4, 0.5);
+  EXPECT_LT((cam_from_world * (truth * x_model) - truth.scale * (cam_from_model * x_model)).norm(), 1e-9);
+}
+
+TEST(LightsTest, CubicInterpolationOfACircularPath) {
+  const double radius = 0.35, omega = 9.4;  // rad/s, as phone L of the tiny preset
+  auto pose_at = [&](double t) {
+    const Eigen::Vector3d eye(radius * std::cos(omega * t), radius * std::sin(omega * t), 0.2);
+    return LookAt(eye, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ());
+  };
+  const Eigen::Vector3d offset(0.01, 0, 0);
+  std::vector<TimedPose> poses;
+  for (int i = 0; i < 30; ++i) poses.push_back({i / 30.0, pose_at(i / 30.0)});
+  std::vector<TimedName> views;
+  for (int i = 0; i < 10; ++i) views.push_back({"view/" + std::to_string(i), 0.1 + i * 0.0787});
+  views.push_back({"view/late", 1.5});
+  const LightsFile lights = InterpolateLights(views, poses, offset, 0.05);
+  ASSERT_EQ(lights.frames.size(), views.size());
+  for (size_t i = 0; i + 1 < views.size(); ++i) {
+    const Eigen::Vector3d truth = FlashPosition(pose_at(views[i].time_s), offset);
+    EXPECT_LT((lights.frames[i].position_m - truth).norm(), 2e-4) << views[i].time_s;
+    EXPECT_TRUE(lights.frames[i].reliable);
+    EXPECT_LE(lights.frames[i].nearest_light_gap_s, 1 / 60.0 + 1e-9);
+  }
+  EXPECT_FALSE(lights.frames.back().reliable);
+  EXPECT_NEAR(lights.frames.back().nearest_light_gap_s, 1.5 - 29 / 30.0, 1e-9);
+  const nlohmann::json coverage = CoverageSummary({Eigen::Vector3d(1, 0, 1)}, {Eigen::Vector3d(0, 1, 0.1)},
+                                                  Eigen::Vector3d::Zero());
+  EXPECT_EQ(coverage["view_histogram"][1][0], 1);   // 45 deg elevation, azimuth 0
+  EXPECT_EQ(coverage["light_histogram"][0][2], 1);  // low, azimuth 90 deg
+}
+
+TEST(BundleTest, RecoversLensAndPosesFromBoardCorners) {
+  BoardSpec spec;
+  Intrinsics truth = Intrinsics::FromFov(640, 480, 1.1);
+  truth.cx += 5;
+  truth.distortion = {0.08, -0.03, 0.0004, -0.0003, 0};
+  BundleProblem problem;
+  problem.square_pixels = true;
+  problem.refine_tangential = false;
+  truth.distortion.p1 = truth.distortion.p2 = 0;
+  problem.corners_world = CharucoCornersWorld(spec);
+  problem.devices["view"] = truth;
+  problem.devices["view"].fx *= 1.03;
+  problem.devices["view"].fy = problem.devices["view"].fx;
+  problem.devices["view"].distortion = {};
+  std::vector<Rigid3> poses;
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0, 0.02);
+  for (int i = 0; i < 12; ++i) {
+    const double a = i * 0.5;
+    const Eigen::Vector3d eye(0.35 * std::cos(a), 0.35 * std::sin(a), 0.08 + 0.04 * i);
+    poses.push_back(LookAt(eye, Eigen::Vector3d(0.01 * std::sin(3 * a), 0, 0), Eigen::Vector3d::UnitZ()));
+    BundleFrame f;
+    f.device = "view";
+    f.posed = true;
+    const Camera camera(truth, poses.back());
+    for (size_t c = 0; c < problem.corners_world.size(); ++c) {
+      Eigen::Vector2d px;
+      if (!camera.Project(problem.corners_world[c], &px)) continue;
+      f.corner_ids.push_back(static_cast<int>(c));
+      f.corners_px.push_back(px + Eigen::Vector2d(noise(rng), noise(rng)));
+    }
+    f.cam_from_world = Rigid3(poses.back().rotation * Eigen::Quaterniond(Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitX())),
+                              poses.back().translation + Eigen::Vector3d(0.01, -0.01, 0.02));
+    problem.frames.push_back(f);
+  }
+  problem.frames[3].corners_px[2] += Eigen::Vector2d(30, 0);  // an outlier
+  const BundleStats stats = RefineBundle(&problem, BundleOptions{});
+  std::cout << "iters " << stats.iterations << " cost " << stats.initial_cost << " -> " << stats.final_cost << " rms " << stats.corner_rms_px << " obs " << stats.corner_observations << "\n";
+  EXPECT_EQ(stats.corner_outliers, 1);
+  EXPECT_LT(stats.corner_rms_px, 0.03);
+  EXPECT_NEAR(problem.devices["view"].fx / truth.fx, 1.0, 2e-3);
+  EXPECT_NEAR(problem.devices["view"].distortion.k1, truth.distortion.k1, 0.01);
+  for (size_t i = 0; i < poses.size(); ++i) {
+    EXPECT_LT((problem.frames[i].cam_from_world.Inverse().translation - poses[i].Inverse().translation).norm(), 1e-3);
+  }
+}
+
+TEST(ColmapTest, TextModelRoundTripUsesPixelCentres) {
+  const fs::path dir = fs::temp_directory_path() / ("relit_calib_model_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  {
+    std::ofstream images(dir / "images.txt");
+    images << "# comment\n1 1 0 0 0 0.1 0.2 0.3 1 view/000000.png\n10.5 20.5 7 3.5 4.5 -1\n"
+              "2 1 0 0 0 0.2 0.2 0.3 1 light/000001.png\n30.5 40.5 7\n";
+    std::ofstream points(dir / "points3D.txt");
+    points << "# comment\n7 0.5 0.6 0.7 255 0 0 0.4 1 0 2 0\n";
+  }
+  const SfmModel model = ReadColmapTextModel(dir.string());
+  ASSERT_EQ(model.cam_from_model.size(), 2u);
+  EXPECT_NEAR(model.cam_from_model.at("light/000001.png").translation.x(), 0.2, 1e-12);
+  ASSERT_EQ(model.tracks.size(), 1u);
+  ASSERT_EQ(model.tracks[0].size(), 2u);
+  EXPECT_EQ(model.tracks[0][0].image, "view/000000.png");
+  EXPECT_NEAR(model.tracks[0][0].pixel_px.x(), 10.0, 1e-12);
+  EXPECT_NEAR(model.tracks[0][1].pixel_px.y(), 40.0, 1e-12);
+  fs::remove_all(dir);
+}
+
+TEST(UndistortTest, PinholeWithAlphaZeroOnlySeesValidPixels) {
+  Intrinsics lens = Intrinsics::FromFov(320, 240, 67.0 * M_PI / 180);
+  lens.cx += 3;
+  lens.distortion = {0.09, -0.03, 0.0004, -0.0003, 0};
+  const Intrinsics pinhole = PinholeFor(lens, 0.0);
+  cv::Mat map_x, map_y;
+  UndistortionMaps(lens, pinhole, &map_x, &map_y);
+  for (int y : {0, 119, 239}) {
+    for (int x : {0, 160, 319}) {
+      EXPECT_GE(map_x.at<float>(y, x), -0.5f);
+      EXPECT_LE(map_x.at<float>(y, x), 319.5f);
+      EXPECT_GE(map_y.at<float>(y, x), -0.5f);
+      EXPECT_LE(map_y.at<float>(y, x), 239.5f);
+    }
+  }
+  // Tight: somewhere along its border the pinhole image reaches a source border.
+  double slack = 1e9;
+  for (int y = 0; y < 240; ++y) {
+    for (int x = 0; x < 320; x += (y == 0 || y == 239) ? 1 : 319) {
+      const double mx = map_x.at<float>(y, x), my = map_y.at<float>(y, x);
+      slack = std::min({slack, mx, 319 - mx, my, 239 - my});
+      EXPECT_GE(std::min({mx, 319 - mx, my, 239 - my}), -0.01);
+    }
+  }
+  EXPECT_LT(slack, 0.5);
+  EXPECT_GT(PinholeFor(lens, 1.0).fx, 0.0);
+}
+
+}  // namespace
+}  // namespace relit::calib

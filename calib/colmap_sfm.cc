@@ -1,0 +1,277 @@
+#include "calib/colmap_sfm.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <thread>
+
+#include <sqlite3.h>
+#include <spdlog/spdlog.h>
+
+#include "core/error.h"
+
+namespace relit::calib {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string Quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += (c == '\'') ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+// Runs one COLMAP command with its output in work_dir/colmap_<step>.log.
+double RunStep(const SfmRunOptions& o, const std::string& step, const std::string& arguments) {
+  const std::string log = (fs::path(o.work_dir) / ("colmap_" + step + ".log")).string();
+  const std::string command = "QT_QPA_PLATFORM=offscreen " + Quote(o.colmap) + " " + step + " " +
+                              arguments + " > " + Quote(log) + " 2>&1";
+  spdlog::info("sfm: colmap {}", step);
+  spdlog::debug("sfm: {}", command);
+  const auto start = std::chrono::steady_clock::now();
+  const int status = std::system(command.c_str());
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (status != 0) {
+    std::string tail;
+    std::ifstream in(log);
+    std::string line;
+    while (std::getline(in, line)) {
+      if (!line.empty()) tail = line;
+    }
+    Fail("COLMAP step '", step, "' failed (exit status ", status, "; is the colmap package "
+         "installed? tools/install-deps): last line '", tail, "', full log ", log);
+  }
+  return seconds;
+}
+
+std::string Params(const Intrinsics& in) {
+  // COLMAP OPENCV: fx, fy, cx, cy, k1, k2, p1, p2 with (0.5, 0.5) at the top-left pixel centre.
+  std::ostringstream s;
+  s.precision(17);
+  s << in.fx << "," << in.fy << "," << in.cx + 0.5 << "," << in.cy + 0.5 << "," << in.distortion.k1 << ","
+    << in.distortion.k2 << "," << in.distortion.p1 << "," << in.distortion.p2;
+  return s.str();
+}
+
+int CountModelImages(const std::string& dir) {
+  std::ifstream in(fs::path(dir) / "images.txt");
+  int lines = 0;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line[0] != '#') ++lines;
+  }
+  return lines / 2;
+}
+
+}  // namespace
+
+SfmModel ReadColmapTextModel(const std::string& dir) {
+  SfmModel model;
+  std::ifstream images(fs::path(dir) / "images.txt");
+  RELIT_REQUIRE(images, "cannot read the COLMAP model ", dir, "/images.txt");
+  std::map<long, std::string> names;
+  std::map<long, std::vector<std::pair<Eigen::Vector2d, long>>> points2d;
+  std::string line;
+  while (std::getline(images, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream header(line);
+    long id, camera;
+    double qw, qx, qy, qz, tx, ty, tz;
+    std::string name;
+    RELIT_REQUIRE(static_cast<bool>(header >> id >> qw >> qx >> qy >> qz >> tx >> ty >> tz >> camera >> name),
+                  dir, "/images.txt: cannot parse '", line, "'");
+    names[id] = name;
+    model.cam_from_model[name] = Rigid3(Eigen::Quaterniond(qw, qx, qy, qz), Eigen::Vector3d(tx, ty, tz));
+    std::getline(images, line);
+    std::istringstream pts(line);
+    double x, y;
+    long point;
+    while (pts >> x >> y >> point) points2d[id].push_back({Eigen::Vector2d(x - 0.5, y - 0.5), point});
+  }
+  std::ifstream points(fs::path(dir) / "points3D.txt");
+  RELIT_REQUIRE(points, "cannot read the COLMAP model ", dir, "/points3D.txt");
+  while (std::getline(points, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream s(line);
+    long id;
+    double x, y, z, error;
+    int r, g, b;
+    RELIT_REQUIRE(static_cast<bool>(s >> id >> x >> y >> z >> r >> g >> b >> error), dir,
+                  "/points3D.txt: cannot parse '", line, "'");
+    std::vector<SfmTrackObservation> track;
+    long image, index;
+    while (s >> image >> index) {
+      const auto it = points2d.find(image);
+      RELIT_REQUIRE(it != points2d.end() && index >= 0 && index < static_cast<long>(it->second.size()),
+                    dir, "/points3D.txt: point ", id, " refers to a missing observation");
+      track.push_back({names.at(image), it->second[index].first});
+    }
+    model.points.emplace_back(x, y, z);
+    model.tracks.push_back(track);
+  }
+  return model;
+}
+
+void ReadColmapDatabase(const std::string& path, std::map<std::string, int>* keypoints, int* verified_pairs) {
+  sqlite3* db = nullptr;
+  if (sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
+    const std::string message = db ? sqlite3_errmsg(db) : "out of memory";
+    sqlite3_close(db);
+    Fail("cannot open the COLMAP database ", path, ": ", message);
+  }
+  auto query = [&](const char* sql, const std::function<void(sqlite3_stmt*)>& row) {
+    sqlite3_stmt* statement = nullptr;
+    if (sqlite3_prepare_v2(db, sql, -1, &statement, nullptr) != SQLITE_OK) {
+      const std::string message = sqlite3_errmsg(db);
+      sqlite3_close(db);
+      Fail("COLMAP database ", path, ": ", message, " (in '", sql, "')");
+    }
+    while (sqlite3_step(statement) == SQLITE_ROW) row(statement);
+    sqlite3_finalize(statement);
+  };
+  query("SELECT images.name, keypoints.rows FROM images LEFT JOIN keypoints ON "
+        "images.image_id = keypoints.image_id",
+        [&](sqlite3_stmt* s) {
+          (*keypoints)[reinterpret_cast<const char*>(sqlite3_column_text(s, 0))] = sqlite3_column_int(s, 1);
+        });
+  *verified_pairs = 0;
+  query("SELECT COUNT(*) FROM two_view_geometries WHERE rows >= 15",
+        [&](sqlite3_stmt* s) { *verified_pairs = sqlite3_column_int(s, 0); });
+  sqlite3_close(db);
+}
+
+SfmResult RunColmapSfm(const std::vector<SfmImage>& images, const std::map<std::string, Intrinsics>& lenses,
+                       const std::vector<std::pair<std::string, std::string>>& pairs, const SfmRunOptions& o) {
+  SfmResult result;
+  result.images = static_cast<int>(images.size());
+  fs::create_directories(o.work_dir);
+  const std::string database = (fs::path(o.work_dir) / "database.db").string();
+  fs::remove(database);
+  const int threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const std::string common = " --database_path " + Quote(database) + " --random_seed 1";
+
+  // Feature extraction: one call per phone so each gets its own fixed lens.
+  for (const auto& [device, lens] : lenses) {
+    const std::string list = (fs::path(o.work_dir) / ("images_" + device + ".txt")).string();
+    std::ofstream out(list);
+    int count = 0;
+    for (const SfmImage& image : images) {
+      if (image.device == device) {
+        out << image.name << "\n";
+        ++count;
+      }
+    }
+    out.close();
+    if (count == 0) continue;
+    result.timings_s["feature_extractor"] += RunStep(
+        o, "feature_extractor",
+        common + " --image_path " + Quote(o.image_dir) + " --image_list_path " + Quote(list) +
+            " --ImageReader.camera_model OPENCV --ImageReader.single_camera 1 --ImageReader.camera_params " +
+            Params(lens) + " --SiftExtraction.use_gpu 0 --SiftExtraction.num_threads " + std::to_string(threads));
+  }
+  result.timings_s["sequential_matcher"] = RunStep(
+      o, "sequential_matcher",
+      common + " --SiftMatching.use_gpu 0 --SiftMatching.num_threads " + std::to_string(threads) +
+          " --SiftMatching.max_num_trials " + std::to_string(o.ransac_trials) + " --SequentialMatching.overlap " + std::to_string(o.sequential_overlap) +
+          " --SequentialMatching.loop_detection 0");
+  if (!pairs.empty()) {
+    const std::string list = (fs::path(o.work_dir) / "cross_pairs.txt").string();
+    std::ofstream out(list);
+    for (const auto& [a, b] : pairs) out << a << " " << b << "\n";
+    out.close();
+    result.timings_s["matches_importer"] = RunStep(
+        o, "matches_importer",
+        common + " --match_list_path " + Quote(list) + " --match_type pairs --SiftMatching.use_gpu 0 --SiftMatching.max_num_trials " +
+            std::to_string(o.ransac_trials) +
+            " --SiftMatching.num_threads " + std::to_string(threads));
+  }
+  ReadColmapDatabase(database, &result.keypoints, &result.verified_pairs);
+  const std::string sparse = (fs::path(o.work_dir) / "sparse").string();
+  fs::remove_all(sparse);
+  fs::create_directories(sparse);
+  result.timings_s["mapper"] = RunStep(
+      o, "mapper",
+      common + " --image_path " + Quote(o.image_dir) + " --output_path " + Quote(sparse) +
+          " --Mapper.ba_refine_focal_length 0 --Mapper.ba_refine_principal_point 0"
+          " --Mapper.ba_refine_extra_params 0 --Mapper.num_threads " + std::to_string(threads));
+
+  // COLMAP may split the sequence into several models: take the largest.
+  std::string best_dir;
+  int best = 0;
+  for (const auto& entry : fs::directory_iterator(sparse)) {
+    if (!entry.is_directory()) continue;
+    const std::string text = entry.path().string() + "_txt";
+    fs::create_directories(text);
+    result.timings_s["model_converter"] += RunStep(
+        o, "model_converter",
+        " --input_path " + Quote(entry.path().string()) + " --output_path " + Quote(text) + " --output_type TXT");
+    const int count = CountModelImages(text);
+    result.model_sizes.push_back(count);
+    if (count > best) {
+      best = count;
+      best_dir = text;
+    }
+  }
+  result.models = static_cast<int>(result.model_sizes.size());
+  std::sort(result.model_sizes.rbegin(), result.model_sizes.rend());
+  RELIT_REQUIRE(best >= o.min_registered, "COLMAP registered only ", best, " of ", images.size(),
+                " images in its largest model (", result.models, " models, ", result.verified_pairs,
+                " verified image pairs; need sfm.min_registered = ", o.min_registered,
+                "). The frames may lack texture or overlap; see ", o.work_dir,
+                "/colmap_mapper.log, or set sfm.enabled: false to use board poses only");
+  result.model = ReadColmapTextModel(best_dir);
+  for (const SfmImage& image : images) {
+    if (result.model.cam_from_model.count(image.name)) {
+      result.registered_by_device[image.device]++;
+    } else {
+      const int keypoints = result.keypoints.count(image.name) ? result.keypoints.at(image.name) : 0;
+      result.unregistered[image.name] = keypoints < 100
+                                            ? "few SIFT features (" + std::to_string(keypoints) + ")"
+                                            : "not enough verified matches to the largest model";
+    }
+  }
+  return result;
+}
+
+void WriteColmapTextModel(const std::string& dir, const std::map<std::string, Intrinsics>& lenses,
+                          const std::vector<std::pair<std::string, std::string>>& image_devices,
+                          const std::vector<Rigid3>& cam_from_world, const std::vector<Eigen::Vector3d>& points) {
+  RELIT_CHECK(image_devices.size() == cam_from_world.size());
+  fs::create_directories(dir);
+  std::map<std::string, int> camera_ids;
+  std::ofstream cameras(fs::path(dir) / "cameras.txt");
+  cameras.precision(17);
+  cameras << "# relit-calib: one camera per phone, COLMAP pixel convention (0.5, 0.5)\n"
+             "# CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n";
+  for (const auto& [device, lens] : lenses) {
+    const int id = static_cast<int>(camera_ids.size()) + 1;
+    camera_ids[device] = id;
+    const Distortion& d = lens.distortion;
+    cameras << id << " FULL_OPENCV " << lens.width << " " << lens.height << " " << lens.fx << " " << lens.fy
+            << " " << lens.cx + 0.5 << " " << lens.cy + 0.5 << " " << d.k1 << " " << d.k2 << " " << d.p1 << " "
+            << d.p2 << " " << d.k3 << " 0 0 0\n";
+  }
+  std::ofstream out(fs::path(dir) / "images.txt");
+  out.precision(17);
+  out << "# relit-calib: poses in the world (board) frame, metres\n"
+         "# IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n# POINTS2D[] (empty)\n";
+  for (size_t i = 0; i < image_devices.size(); ++i) {
+    const Eigen::Quaterniond& q = cam_from_world[i].rotation;
+    const Eigen::Vector3d& t = cam_from_world[i].translation;
+    out << i + 1 << " " << q.w() << " " << q.x() << " " << q.y() << " " << q.z() << " " << t.x() << " " << t.y()
+        << " " << t.z() << " " << camera_ids.at(image_devices[i].second) << " " << image_devices[i].first << "\n\n";
+  }
+  std::ofstream pts(fs::path(dir) / "points3D.txt");
+  pts.precision(10);
+  pts << "# POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] (tracks not exported)\n";
+  for (size_t i = 0; i < points.size(); ++i) {
+    pts << i + 1 << " " << points[i].x() << " " << points[i].y() << " " << points[i].z() << " 128 128 128 0\n";
+  }
+}
+
+}  // namespace relit::calib

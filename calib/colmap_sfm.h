@@ -1,0 +1,85 @@
+// Structure from motion with the COLMAP command line (Debian's colmap 3.8,
+// CPU only): feature extraction per phone with its board-calibrated lens,
+// sequential matching in each phone's frame order, cross-phone pairs
+// ("loop closure" between the two phones) imported as a pair list, the
+// incremental mapper, and a text export of the largest model. The SQLite
+// database and the text model are read back in C++. Pixel coordinates are
+// converted from COLMAP's (0.5, 0.5) to relit's (0, 0) top-left pixel
+// centre.
+#pragma once
+
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/camera.h"
+
+namespace relit::calib {
+
+struct SfmImage {
+  std::string name;        // COLMAP image name relative to the image folder, e.g. "view/000003.png"
+  std::string device;      // "view" or "light"
+};
+
+struct SfmRunOptions {
+  std::string colmap = "colmap";
+  std::string image_dir;   // folder the image names are relative to
+  std::string work_dir;    // database, logs and models go here
+  int sequential_overlap = 10;
+  int ransac_trials = 1000;  // geometric verification of each pair
+  int threads = 0;
+  int min_registered = 6;
+};
+
+struct SfmTrackObservation {
+  std::string image;            // image name
+  Eigen::Vector2d pixel_px;     // OpenCV convention
+};
+
+struct SfmModel {
+  std::map<std::string, Rigid3> cam_from_model;   // by image name
+  std::vector<Eigen::Vector3d> points;
+  std::vector<std::vector<SfmTrackObservation>> tracks;
+};
+
+struct SfmResult {
+  SfmModel model;                                  // the largest model
+  int images = 0;
+  int models = 0;
+  std::vector<int> model_sizes;                    // registered images per model
+  std::map<std::string, int> registered_by_device;
+  std::map<std::string, int> keypoints;            // per image, from the database
+  int verified_pairs = 0;                          // image pairs with geometrically verified matches
+  std::map<std::string, std::string> unregistered; // image -> likely reason
+  std::map<std::string, double> timings_s;         // per COLMAP step
+};
+
+// Runs COLMAP. Lenses are given per device (OPENCV model, fixed during
+// mapping). `pairs` are extra image pairs to match (names). Throws
+// relit::Error when a COLMAP step fails or registers fewer than
+// min_registered images, naming the step and its log file.
+SfmResult RunColmapSfm(const std::vector<SfmImage>& images,
+                       const std::map<std::string, Intrinsics>& lenses,
+                       const std::vector<std::pair<std::string, std::string>>& pairs,
+                       const SfmRunOptions& options);
+
+// Readers of COLMAP's text model (cameras are not needed: lenses are relit's).
+SfmModel ReadColmapTextModel(const std::string& dir);
+
+// Keypoint counts per image name and the number of verified pairs in a
+// COLMAP database.
+void ReadColmapDatabase(const std::string& path, std::map<std::string, int>* keypoints,
+                        int* verified_pairs);
+
+// Writes a COLMAP text model (cameras.txt, images.txt, points3D.txt) in
+// COLMAP's pixel convention. Cameras: one per device, numbered from 1 in
+// map order; images in the given order.
+void WriteColmapTextModel(const std::string& dir, const std::map<std::string, Intrinsics>& lenses,
+                          const std::vector<std::pair<std::string, std::string>>& image_devices,
+                          const std::vector<Rigid3>& cam_from_world,
+                          const std::vector<Eigen::Vector3d>& points);
+
+}  // namespace relit::calib

@@ -1,0 +1,34 @@
+// Undistorted phone V frames: a pinhole camera for the calibrated lens and
+// the resampled images (linear half EXR and 8-bit sRGB PNG), so later
+// stages only ever see pinhole cameras.
+#pragma once
+
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "core/camera.h"
+
+namespace relit::calib {
+
+// The pinhole camera (same image size, square pixels, centred principal
+// point) for images taken with `distorted`. alpha = 0: every pinhole pixel
+// sees the scene (crops the borders), alpha = 1: every source pixel is kept.
+Intrinsics PinholeFor(const Intrinsics& distorted, double alpha);
+
+class FrameUndistorter {
+ public:
+  FrameUndistorter(const Intrinsics& distorted, const Intrinsics& pinhole);
+
+  // Resamples a linear EXR (bilinear, in linear light) and an 8-bit sRGB
+  // image; writes both (parents created, files replaced atomically).
+  void Run(const std::string& linear_in, const std::string& srgb_in, const std::string& linear_out,
+           const std::string& srgb_out) const;
+
+  cv::Mat Remap(const cv::Mat& image) const;
+
+ private:
+  cv::Mat map_x_, map_y_;
+};
+
+}  // namespace relit::calib
