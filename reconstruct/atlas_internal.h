@@ -1,0 +1,62 @@
+// Internals of the UV atlas shared by its translation units (chart growing,
+// CGAL parameterisation, packing). Not part of the stage's interface.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/render/mesh.h"
+#include "reconstruct/reconstruct_options.h"
+
+namespace relit::reconstruct::atlas {
+
+// Face adjacency over shared edges (-1 = border), normals, areas, centroids.
+struct FaceGraph {
+  std::vector<std::array<int, 3>> neighbours;  // across edge (k, k+1)
+  std::vector<Eigen::Vector3d> normals;
+  std::vector<double> areas;
+  std::vector<Eigen::Vector3d> centroids;
+};
+FaceGraph BuildFaceGraph(const render::TriangleMesh& mesh);
+
+// One chart: global faces, its local vertices and their UVs.
+struct Chart {
+  std::vector<int> faces;
+  std::vector<int> vertices;                 // global vertex index per local vertex
+  std::vector<Eigen::Vector3i> triangles;    // local indices, same order as faces
+  std::vector<Eigen::Vector2d> uv;           // per local vertex
+};
+Chart MakeChart(const render::TriangleMesh& mesh, std::vector<int> faces);
+
+// Seeded region growing on the face graph; returns face lists.
+std::vector<std::vector<int>> GrowCharts(const render::TriangleMesh& mesh, const FaceGraph& graph,
+                                         const AtlasOptions& options);
+
+// True when the chart is one connected topological disc (one boundary loop,
+// Euler characteristic 1).
+bool IsDisc(const Chart& chart);
+
+// Splits a chart's faces in two along the principal axis of their centroids;
+// the halves are then separated into face-connected pieces.
+std::vector<std::vector<int>> SplitFaces(const std::vector<int>& faces, const FaceGraph& graph);
+
+// LSCM parameterisation with CGAL (fills chart->uv); false when CGAL fails.
+bool ParameterizeLscm(const render::TriangleMesh& mesh, Chart* chart);
+
+struct ChartQuality {
+  int flipped = 0;           // triangles against the majority orientation (after mirroring)
+  int degenerate = 0;
+  bool overlaps = false;     // two triangles cover the same point
+  double stretch_l2 = 0;     // area-weighted, normalised to 1 for an isometry up to scale
+};
+// Mirrors the chart if most triangles are clockwise, rescales UVs to metres
+// (UV area = surface area) and evaluates it.
+ChartQuality NormaliseAndEvaluate(const render::TriangleMesh& mesh, Chart* chart);
+
+// Packs charts (UVs in metres) into resolution^2 texels with `gutter` empty
+// texels between charts. Returns false if they do not fit at any scale.
+bool PackCharts(std::vector<Chart>* charts, int resolution_px, int gutter_px,
+                double* texels_per_metre);
+
+}  // namespace relit::reconstruct::atlas

@@ -1,0 +1,66 @@
+// Proxy mesh cleanup with CGAL Polygon Mesh Processing: crop to the region
+// above the board plane, drop small components (floaters), repair
+// non-manifold input, fill holes, orient outward, isotropic remeshing and
+// decimation to a target face count. Also the topological checks the stage
+// and its tests report (closed, manifold, components, volume).
+#pragma once
+
+#include <cstdint>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "core/render/mesh.h"
+#include "reconstruct/reconstruct_options.h"
+
+namespace relit::reconstruct {
+
+// Crop region: a vertical cylinder about (centre_xy) of radius radius_m,
+// above z = margin (world frame, board plane z = 0).
+struct CropRegion {
+  Eigen::Vector2d centre_xy = Eigen::Vector2d::Zero();
+  double radius_m = 1.0;
+};
+
+struct CleanupReport {
+  int input_faces = 0;
+  int cropped_faces = 0;            // faces left after the crop
+  int non_manifold_repairs = 0;     // vertices duplicated to make the input manifold
+  int components_in = 0;
+  int components_kept = 0;
+  int holes_filled = 0;
+  int output_faces = 0;
+  nlohmann::json ToJson() const;
+};
+
+// Throws relit::Error when the input is empty, crops to nothing, or is
+// non-manifold while options.repair_non_manifold is false.
+render::TriangleMesh CleanupMesh(const render::TriangleMesh& input, const CleanupOptions& options,
+                                 const CropRegion& crop, CleanupReport* report);
+
+struct MeshStats {
+  int faces = 0;
+  int vertices = 0;                 // after merging equal positions
+  int boundary_edges = 0;           // 0 = watertight
+  int non_manifold_edges = 0;       // edges with more than two faces or inconsistent orientation
+  int non_manifold_vertices = 0;
+  int components = 0;
+  bool self_intersects = false;
+  double area_m2 = 0;
+  double volume_m3 = 0;             // signed: > 0 for outward orientation
+  bool closed() const { return boundary_edges == 0; }
+  bool manifold() const { return non_manifold_edges == 0 && non_manifold_vertices == 0; }
+  nlohmann::json ToJson() const;
+};
+
+// Topology of an indexed mesh; equal positions are merged first, so UV seams
+// do not count as boundaries.
+MeshStats AnalyseMesh(const render::TriangleMesh& mesh);
+
+// Symmetric mean Chamfer distance in metres: the mean of the distances from
+// `samples` area-uniform random points on each mesh to the other surface
+// (exact point-triangle distances, CGAL AABB tree), averaged over both ways.
+double SymmetricChamferDistance(const render::TriangleMesh& a, const render::TriangleMesh& b,
+                                int samples = 20000, uint64_t seed = 1);
+
+}  // namespace relit::reconstruct

@@ -1,0 +1,156 @@
+#include "reconstruct/reconstruct_options.h"
+
+#include "core/error.h"
+
+namespace relit::reconstruct {
+
+void CleanupOptions::Read(OptionsReader& r) {
+  r.ReadRange("crop_margin_m", &crop_margin_m, 0.0, 1.0);
+  r.ReadRange("crop_radius_m", &crop_radius_m, 0.0, 100.0);
+  r.ReadRange("crop_radius_scale", &crop_radius_scale, 0.1, 100.0);
+  r.ReadRange("min_component_fraction", &min_component_fraction, 0.0, 1.0);
+  r.Read("repair_non_manifold", &repair_non_manifold);
+  r.ReadRange("target_faces", &target_faces, 100, 10000000);
+  r.ReadRange("remesh_iterations", &remesh_iterations, 0, 100);
+  r.Read("fair_holes", &fair_holes);
+  r.Finish();
+}
+
+void CleanupOptions::Check() const {
+  RELIT_REQUIRE(crop_margin_m >= 0, "cleanup.crop_margin_m must be >= 0, got ", crop_margin_m);
+  RELIT_REQUIRE(crop_radius_m >= 0, "cleanup.crop_radius_m must be >= 0 (0 = automatic)");
+  RELIT_REQUIRE(crop_radius_scale > 0, "cleanup.crop_radius_scale must be > 0");
+  RELIT_REQUIRE(min_component_fraction >= 0 && min_component_fraction <= 1,
+                "cleanup.min_component_fraction must be in [0, 1]");
+  RELIT_REQUIRE(target_faces >= 100, "cleanup.target_faces must be >= 100, got ", target_faces);
+  RELIT_REQUIRE(remesh_iterations >= 0, "cleanup.remesh_iterations must be >= 0");
+}
+
+nlohmann::json CleanupOptions::ToJson() const {
+  return {{"crop_margin_m", crop_margin_m},
+          {"crop_radius_m", crop_radius_m},
+          {"crop_radius_scale", crop_radius_scale},
+          {"min_component_fraction", min_component_fraction},
+          {"repair_non_manifold", repair_non_manifold},
+          {"target_faces", target_faces},
+          {"remesh_iterations", remesh_iterations},
+          {"fair_holes", fair_holes}};
+}
+
+void AtlasOptions::Read(OptionsReader& r) {
+  r.ReadRange("resolution_px", &resolution_px, 16, 16384);
+  r.ReadRange("gutter_px", &gutter_px, 1, 64);
+  r.ReadRange("max_normal_deviation_deg", &max_normal_deviation_deg, 1.0, 89.0);
+  r.ReadRange("roundness_weight", &roundness_weight, 0.0, 100.0);
+  r.ReadRange("seam_weight", &seam_weight, 0.0, 100.0);
+  r.ReadRange("max_chart_faces", &max_chart_faces, 1, 10000000);
+  r.ReadRange("max_stretch", &max_stretch, 1.0, 1000.0);
+  r.Read("write_preview", &write_preview);
+  r.Finish();
+}
+
+void AtlasOptions::Check() const {
+  RELIT_REQUIRE(resolution_px >= 16, "atlas.resolution_px must be >= 16, got ", resolution_px);
+  RELIT_REQUIRE(gutter_px >= 1 && gutter_px * 8 < resolution_px,
+                "atlas.gutter_px must be >= 1 and well below the resolution, got ", gutter_px);
+  RELIT_REQUIRE(max_normal_deviation_deg > 0 && max_normal_deviation_deg < 90,
+                "atlas.max_normal_deviation_deg must be in (0, 90)");
+  RELIT_REQUIRE(max_chart_faces >= 1, "atlas.max_chart_faces must be >= 1");
+  RELIT_REQUIRE(max_stretch >= 1, "atlas.max_stretch must be >= 1");
+}
+
+nlohmann::json AtlasOptions::ToJson() const {
+  return {{"resolution_px", resolution_px},
+          {"gutter_px", gutter_px},
+          {"max_normal_deviation_deg", max_normal_deviation_deg},
+          {"roundness_weight", roundness_weight},
+          {"seam_weight", seam_weight},
+          {"max_chart_faces", max_chart_faces},
+          {"max_stretch", max_stretch},
+          {"write_preview", write_preview}};
+}
+
+void TrimapOptions::Read(OptionsReader& r) {
+  r.ReadRange("band_px", &band_px, 0, 1000);
+  r.ReadRange("band_min_px", &band_min_px, 1, 1000);
+  r.ReadRange("image_fraction", &image_fraction, 0.0, 0.5);
+  r.ReadRange("proxy_error_m", &proxy_error_m, 0.0, 1.0);
+  r.Finish();
+}
+
+void TrimapOptions::Check() const {
+  RELIT_REQUIRE(band_px >= 0, "trimap.band_px must be >= 0 (0 = automatic)");
+  RELIT_REQUIRE(band_min_px >= 1, "trimap.band_min_px must be >= 1");
+  RELIT_REQUIRE(image_fraction >= 0, "trimap.image_fraction must be >= 0");
+  RELIT_REQUIRE(proxy_error_m >= 0, "trimap.proxy_error_m must be >= 0");
+}
+
+nlohmann::json TrimapOptions::ToJson() const {
+  return {{"band_px", band_px},
+          {"band_min_px", band_min_px},
+          {"image_fraction", image_fraction},
+          {"proxy_error_m", proxy_error_m}};
+}
+
+void MattingOptions::Read(OptionsReader& r) {
+  r.ReadRange("window_radius_px", &window_radius_px, 1, 5);
+  r.ReadRange("epsilon", &epsilon, 1e-12, 1.0);
+  r.ReadRange("prior_weight", &prior_weight, 0.0, 1.0);
+  r.ReadRange("multiscale_min_megapixels", &multiscale_min_megapixels, 0.0, 1000.0);
+  r.ReadRange("threads", &threads, 0, 1024);
+  r.Finish();
+}
+
+void MattingOptions::Check() const {
+  RELIT_REQUIRE(window_radius_px >= 1, "matting.window_radius_px must be >= 1");
+  RELIT_REQUIRE(epsilon > 0, "matting.epsilon must be > 0");
+  RELIT_REQUIRE(prior_weight >= 0, "matting.prior_weight must be >= 0");
+  RELIT_REQUIRE(multiscale_min_megapixels >= 0, "matting.multiscale_min_megapixels must be >= 0");
+  RELIT_REQUIRE(threads >= 0, "matting.threads must be >= 0");
+}
+
+nlohmann::json MattingOptions::ToJson() const {
+  return {{"window_radius_px", window_radius_px},
+          {"epsilon", epsilon},
+          {"prior_weight", prior_weight},
+          {"multiscale_min_megapixels", multiscale_min_megapixels},
+          {"threads", threads}};
+}
+
+void ReconstructOptions::Read(OptionsReader& r) {
+  r.Read("workspace", &workspace);
+  r.Read("mesh", &mesh);
+  r.Read("log_level", &log_level);
+  r.ReadRange("max_matte_frames", &max_matte_frames, 0, 1000000);
+  OptionsReader c = r.Child("cleanup");
+  cleanup.Read(c);
+  OptionsReader a = r.Child("atlas");
+  atlas.Read(a);
+  OptionsReader t = r.Child("trimap");
+  trimap.Read(t);
+  OptionsReader m = r.Child("matting");
+  matting.Read(m);
+  r.Finish();
+}
+
+void ReconstructOptions::Check() const {
+  RELIT_REQUIRE(!workspace.empty(), "reconstruct: the workspace is required (--workspace W)");
+  RELIT_REQUIRE(max_matte_frames >= 0, "max_matte_frames must be >= 0");
+  cleanup.Check();
+  atlas.Check();
+  trimap.Check();
+  matting.Check();
+}
+
+nlohmann::json ReconstructOptions::ToJson() const {
+  return {{"workspace", workspace},
+          {"mesh", mesh},
+          {"log_level", log_level},
+          {"max_matte_frames", max_matte_frames},
+          {"cleanup", cleanup.ToJson()},
+          {"atlas", atlas.ToJson()},
+          {"trimap", trimap.ToJson()},
+          {"matting", matting.ToJson()}};
+}
+
+}  // namespace relit::reconstruct

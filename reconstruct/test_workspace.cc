@@ -1,0 +1,122 @@
+#include "reconstruct/test_workspace.h"
+
+#include <array>
+#include <filesystem>
+#include <map>
+
+#include "core/color.h"
+#include "core/image.h"
+#include "core/render/path_tracer.h"
+#include "core/render/scene.h"
+#include "tools/synth/capture_plan.h"
+#include "tools/synth/scene.h"
+#include "tools/synth/synth_options.h"
+
+namespace relit::reconstruct::testing {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Merges equal positions (OBJ seams) so the surface can be offset without cracks.
+render::TriangleMesh Weld(const render::TriangleMesh& mesh) {
+  render::TriangleMesh out;
+  std::map<std::array<float, 3>, int> index;
+  std::vector<int> remap(mesh.positions.size());
+  for (size_t i = 0; i < mesh.positions.size(); ++i) {
+    const Eigen::Vector3f& p = mesh.positions[i];
+    const auto [it, inserted] = index.emplace(std::array<float, 3>{p.x(), p.y(), p.z()}, static_cast<int>(out.positions.size()));
+    if (inserted) out.positions.push_back(p);
+    remap[i] = it->second;
+  }
+  for (const Eigen::Vector3i& t : mesh.triangles) out.triangles.push_back({remap[t[0]], remap[t[1]], remap[t[2]]});
+  return out;
+}
+
+}  // namespace
+
+TestWorkspace MakeTestWorkspace(const std::string& dir, int frames, int samples_per_pixel, double rough_offset_m) {
+  TestWorkspace ws;
+  ws.dir = dir;
+  fs::remove_all(dir);
+  fs::create_directories(fs::path(dir) / "calib" / "undistorted");
+  synth::SynthOptions options = synth::SynthOptions::ForSize("tiny");
+  options.out = dir;  // required by the plan's option check; nothing is written there by synth
+  const synth::SynthScene scene = synth::BuildScene("spot", options.board, synth::DefaultAssetsDir());
+  const synth::CapturePlan plan = synth::MakeCapturePlan(options, scene);
+  render::TriangleMesh scan;
+  for (const synth::SynthObject& object : scene.objects) {
+    render::TriangleMesh* target = object.foreground ? &ws.truth_mesh : &scan;
+    for (render::TriangleMesh* m : {target, object.foreground ? &scan : nullptr}) {
+      if (!m) continue;
+      const int base = static_cast<int>(m->positions.size());
+      m->positions.insert(m->positions.end(), object.mesh.positions.begin(), object.mesh.positions.end());
+      for (const Eigen::Vector3i& t : object.mesh.triangles) m->triangles.push_back(t + Eigen::Vector3i::Constant(base));
+    }
+  }
+  ws.user_mesh = (fs::path(dir) / "user_mesh.obj").string();
+  render::SaveMesh(ws.user_mesh, scan);
+  render::TriangleMesh rough = Weld(ws.truth_mesh);
+  rough.ComputeVertexNormals();
+  for (size_t i = 0; i < rough.positions.size(); ++i) {
+    rough.positions[i] += static_cast<float>(rough_offset_m) * rough.normals[i];
+  }
+  rough.normals.clear();
+  for (const synth::SynthObject& object : scene.objects) {
+    if (object.foreground) continue;
+    const int base = static_cast<int>(rough.positions.size());
+    rough.positions.insert(rough.positions.end(), object.mesh.positions.begin(), object.mesh.positions.end());
+    for (const Eigen::Vector3i& t : object.mesh.triangles) rough.triangles.push_back(t + Eigen::Vector3i::Constant(base));
+  }
+  ws.rough_mesh = (fs::path(dir) / "rough_mesh.obj").string();
+  render::SaveMesh(ws.rough_mesh, rough);
+
+  ws.cameras.board = options.board;
+  ws.cameras.devices["view"] = plan.view_intrinsics;
+  ws.cameras.undistorted_view = plan.view_intrinsics.WithoutDistortion();
+  render::Scene render_scene;
+  scene.AddTo(&render_scene);
+  const int count = static_cast<int>(plan.view.frames.size());
+  for (int i = 0; i < frames; ++i) {
+    const synth::FramePlan& f = plan.view.frames[static_cast<size_t>(i) * count / frames];
+    render_scene.ClearLights();
+    render_scene.AddLight(render::PointLight{f.light_position_world.cast<float>(),
+                                             render::Rgb::Constant(static_cast<float>(options.flash_intensity_w_per_sr))});
+    if (i == 0) render_scene.Commit();
+    CalibratedFrame frame;
+    char name[32];
+    std::snprintf(name, sizeof(name), "view/%06d", f.index);
+    frame.name = name;
+    frame.device = "view";
+    frame.time_s = f.t_common_s;
+    frame.cam_from_world = f.cam_from_world;
+    const std::string stem = "calib/undistorted/" + std::string(name);
+    frame.image_linear = stem + ".exr";
+    frame.image_8bit = stem + ".png";
+    const Camera camera = ws.cameras.ViewCamera(frame);
+    render::RenderOptions ro;
+    ro.samples_per_pixel = samples_per_pixel;
+    ro.max_depth = 2;
+    ro.seed = static_cast<uint64_t>(f.index + 1);
+    ro.alpha_object_ids = scene.ForegroundIds();
+    const render::RenderResult result = render::RenderImage(render_scene, camera, ro);
+    fs::create_directories((fs::path(dir) / stem).parent_path());
+    WriteImage((fs::path(dir) / frame.image_linear).string(), result.radiance);
+    WriteImage((fs::path(dir) / frame.image_8bit).string(), EncodeImage(result.radiance, TransferFunction::kSrgb),
+               PixelStorage::kUint8);
+    ws.truth_alpha.push_back(result.alpha.ToMat().clone());
+    ws.cameras.frames.push_back(frame);
+  }
+  WriteCamerasFile((fs::path(dir) / "calib" / "cameras.json").string(), ws.cameras);
+  return ws;
+}
+
+double MatteMse(const cv::Mat& a, const cv::Mat& b) {
+  cv::Mat d;
+  cv::subtract(a, b, d, cv::noArray(), CV_64F);
+  return cv::mean(d.mul(d))[0];
+}
+
+double MatteSad(const cv::Mat& a, const cv::Mat& b) { return cv::norm(a, b, cv::NORM_L1); }
+
+}  // namespace relit::reconstruct::testing

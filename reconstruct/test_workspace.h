@@ -1,0 +1,37 @@
+// Test fixture: a workspace with calib/cameras.json built from the synthetic
+// spot capture's ground truth (tiny size), undistorted phone V frames
+// rendered with pinhole cameras by the relit path tracer under the frame's
+// flash light, and the ground-truth alpha of each frame. Stands in for the
+// calib stage's output until calib exists. Test-only code.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "core/render/mesh.h"
+#include "core/workspace.h"
+
+namespace relit::reconstruct::testing {
+
+struct TestWorkspace {
+  std::string dir;                          // the workspace W
+  CamerasFile cameras;
+  std::vector<cv::Mat> truth_alpha;         // CV_32F per view frame, same order as cameras.frames
+  render::TriangleMesh truth_mesh;          // foreground objects, world frame
+  std::string user_mesh;                    // W/user_mesh.obj: truth + board + table (a "scan")
+  // W/rough_mesh.obj: like user_mesh, but the object inflated along its
+  // normals by `rough_offset_m`, as a smooth stereo/Poisson proxy would be.
+  std::string rough_mesh;
+};
+
+// Renders `frames` phone V frames spread over the tiny spot capture.
+TestWorkspace MakeTestWorkspace(const std::string& dir, int frames, int samples_per_pixel = 16,
+                                double rough_offset_m = 0.003);
+
+// Mean squared error and sum of absolute differences of two CV_32F mattes.
+double MatteMse(const cv::Mat& a, const cv::Mat& b);
+double MatteSad(const cv::Mat& a, const cv::Mat& b);
+
+}  // namespace relit::reconstruct::testing
