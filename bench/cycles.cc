@@ -11,24 +11,13 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/shell.h"
 
 namespace relit::bench {
 
 namespace {
 
 // Single-quotes a string for /bin/sh.
-std::string Quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) {
-    if (c == '\'') {
-      out += "'\\''";
-    } else {
-      out += c;
-    }
-  }
-  return out + "'";
-}
-
 std::string Number(double v) {
   // Fixed notation: argparse would take "-4e-08" for an option name.
   std::ostringstream stream;
@@ -103,9 +92,9 @@ std::string CyclesCommand(const BenchSceneSpec& spec, const CyclesOptions& optio
     for (int c = 0; c < 4; ++c) matrix += (matrix.empty() ? "" : " ") + Number(m(r, c));
   }
   std::ostringstream cmd;
-  cmd << Quote(options.blender) << " -b --factory-startup -noaudio --python-exit-code 1 --python "
-      << Quote(options.script) << " --"
-      << " --mesh " << Quote(spec.mesh_path) << " --output-dir " << Quote(options.output_dir)
+  cmd << ShellQuote(options.blender) << " -b --factory-startup -noaudio --python-exit-code 1 --python "
+      << ShellQuote(options.script) << " --"
+      << " --mesh " << ShellQuote(spec.mesh_path) << " --output-dir " << ShellQuote(options.output_dir)
       << " --materials " << names << " --width " << spec.width << " --height " << spec.height
       << " --spp " << options.samples_per_pixel << " --max-bounces " << options.max_depth - 1
       << " --threads " << options.threads << " --repeats " << options.repeats
@@ -130,7 +119,7 @@ CyclesResult RunCycles(const BenchSceneSpec& spec, const CyclesOptions& options,
     return result;
   }
   int status = 0;
-  std::string version = Capture(Quote(blender) + " --version", &status);
+  std::string version = Capture(ShellQuote(blender) + " --version", &status);
   version = version.substr(0, version.find('\n'));
   std::filesystem::create_directories(options.output_dir);
   const std::string log_path = options.output_dir + "/cycles.log";

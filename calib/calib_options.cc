@@ -7,20 +7,6 @@
 
 namespace relit::calib {
 
-void ReadBoard(OptionsReader& r, BoardSpec* board) {
-  r.ReadRange("squares_x", &board->squares_x, 3, 100);
-  r.ReadRange("squares_y", &board->squares_y, 3, 100);
-  r.ReadRange("square_length_m", &board->square_length_m, 1e-4, 1.0);
-  r.ReadRange("marker_length_m", &board->marker_length_m, 1e-4, 1.0);
-  r.Read("dictionary", &board->dictionary);
-  r.Finish();
-  try {
-    board->Check();
-  } catch (const Error& e) {
-    Fail(r.file(), ": board: ", e.what());
-  }
-}
-
 void DetectOptions::Read(OptionsReader& r) {
   r.Read("apriltag", &apriltag);
   r.ReadRange("apriltag_below_fraction", &apriltag_below_fraction, 0.0, 1.0);
@@ -164,7 +150,7 @@ nlohmann::json UndistortOptions::ToJson() const {
 void CalibOptions::Read(OptionsReader& r) {
   r.Read("workspace", &workspace);
   OptionsReader board_reader = r.Child("board");
-  ReadBoard(board_reader, &board);
+  ReadBoardSpec(board_reader, &board);
   OptionsReader d = r.Child("detect");
   detect.Read(d);
   OptionsReader i = r.Child("intrinsics");

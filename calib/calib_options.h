@@ -15,8 +15,6 @@
 
 namespace relit::calib {
 
-// Reads a `board:` section onto `board` (keys of BoardSpec) and checks it.
-void ReadBoard(OptionsReader& reader, BoardSpec* board);
 
 struct DetectOptions {
   // libapriltag use: "off", "second_pass" (frames where OpenCV finds fewer

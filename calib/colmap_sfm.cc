@@ -13,6 +13,7 @@
 #include <spdlog/spdlog.h>
 
 #include "core/error.h"
+#include "core/shell.h"
 
 namespace relit::calib {
 
@@ -20,17 +21,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string Quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += (c == '\'') ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
 // Runs one COLMAP command with its output in work_dir/colmap_<step>.log.
 double RunStep(const SfmRunOptions& o, const std::string& step, const std::string& arguments) {
   const std::string log = (fs::path(o.work_dir) / ("colmap_" + step + ".log")).string();
-  const std::string command = "QT_QPA_PLATFORM=offscreen " + Quote(o.colmap) + " " + step + " " +
-                              arguments + " > " + Quote(log) + " 2>&1";
+  const std::string command = "QT_QPA_PLATFORM=offscreen " + ShellQuote(o.colmap) + " " + step + " " +
+                              arguments + " > " + ShellQuote(log) + " 2>&1";
   spdlog::info("sfm: colmap {}", step);
   spdlog::debug("sfm: {}", command);
   const auto start = std::chrono::steady_clock::now();
@@ -153,7 +148,7 @@ SfmResult RunColmapSfm(const std::vector<SfmImage>& images, const std::map<std::
   const std::string database = (fs::path(o.work_dir) / "database.db").string();
   fs::remove(database);
   const int threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  const std::string common = " --database_path " + Quote(database) + " --random_seed 1";
+  const std::string common = " --database_path " + ShellQuote(database) + " --random_seed 1";
 
   // Feature extraction: one call per phone so each gets its own fixed lens.
   for (const auto& [device, lens] : lenses) {
@@ -170,7 +165,7 @@ SfmResult RunColmapSfm(const std::vector<SfmImage>& images, const std::map<std::
     if (count == 0) continue;
     result.timings_s["feature_extractor"] += RunStep(
         o, "feature_extractor",
-        common + " --image_path " + Quote(o.image_dir) + " --image_list_path " + Quote(list) +
+        common + " --image_path " + ShellQuote(o.image_dir) + " --image_list_path " + ShellQuote(list) +
             " --ImageReader.camera_model OPENCV --ImageReader.single_camera 1 --ImageReader.camera_params " +
             Params(lens) + " --SiftExtraction.use_gpu 0 --SiftExtraction.num_threads " + std::to_string(threads));
   }
@@ -186,7 +181,7 @@ SfmResult RunColmapSfm(const std::vector<SfmImage>& images, const std::map<std::
     out.close();
     result.timings_s["matches_importer"] = RunStep(
         o, "matches_importer",
-        common + " --match_list_path " + Quote(list) + " --match_type pairs --SiftMatching.use_gpu 0 --SiftMatching.max_num_trials " +
+        common + " --match_list_path " + ShellQuote(list) + " --match_type pairs --SiftMatching.use_gpu 0 --SiftMatching.max_num_trials " +
             std::to_string(o.ransac_trials) +
             " --SiftMatching.num_threads " + std::to_string(threads));
   }
@@ -196,7 +191,7 @@ SfmResult RunColmapSfm(const std::vector<SfmImage>& images, const std::map<std::
   fs::create_directories(sparse);
   result.timings_s["mapper"] = RunStep(
       o, "mapper",
-      common + " --image_path " + Quote(o.image_dir) + " --output_path " + Quote(sparse) +
+      common + " --image_path " + ShellQuote(o.image_dir) + " --output_path " + ShellQuote(sparse) +
           " --Mapper.ba_refine_focal_length 0 --Mapper.ba_refine_principal_point 0"
           " --Mapper.ba_refine_extra_params 0 --Mapper.num_threads " + std::to_string(threads));
 
@@ -209,7 +204,7 @@ SfmResult RunColmapSfm(const std::vector<SfmImage>& images, const std::map<std::
     fs::create_directories(text);
     result.timings_s["model_converter"] += RunStep(
         o, "model_converter",
-        " --input_path " + Quote(entry.path().string()) + " --output_path " + Quote(text) + " --output_type TXT");
+        " --input_path " + ShellQuote(entry.path().string()) + " --output_path " + ShellQuote(text) + " --output_type TXT");
     const int count = CountModelImages(text);
     result.model_sizes.push_back(count);
     if (count > best) {

@@ -161,12 +161,6 @@ std::string RotationFilter(int rotation_deg) {
 
 }  // namespace
 
-std::string ShellQuote(const std::string& text) {
-  std::string quoted = "'";
-  for (char c : text) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return quoted + "'";
-}
-
 VideoInfo ProbeVideo(const std::string& path, const std::string& role) {
   std::error_code error;
   RELIT_REQUIRE(fs::exists(path, error), "cannot read the ", role, " ", path,

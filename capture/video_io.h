@@ -16,6 +16,7 @@
 #include <vector>
 
 #include <opencv2/core.hpp>
+#include "core/shell.h"
 
 namespace relit::capture {
 
@@ -96,7 +97,5 @@ struct FileFingerprint {
 };
 FileFingerprint Fingerprint(const std::string& path);
 
-// Single-quotes a string for /bin/sh.
-std::string ShellQuote(const std::string& text);
 
 }  // namespace relit::capture

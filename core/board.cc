@@ -20,6 +20,20 @@ void BoardSpec::Check() const {
   DictionaryId(dictionary);
 }
 
+void ReadBoardSpec(OptionsReader& r, BoardSpec* board) {
+  r.ReadRange("squares_x", &board->squares_x, 3, 100);
+  r.ReadRange("squares_y", &board->squares_y, 3, 100);
+  r.ReadRange("square_length_m", &board->square_length_m, 1e-4, 1.0);
+  r.ReadRange("marker_length_m", &board->marker_length_m, 1e-4, 1.0);
+  r.Read("dictionary", &board->dictionary);
+  r.Finish();
+  try {
+    board->Check();
+  } catch (const Error& e) {
+    Fail(r.file(), ": board: ", e.what());
+  }
+}
+
 int DictionaryId(const std::string& name) {
   static const std::map<std::string, int> kIds = {
       {"DICT_4X4_50", cv::aruco::DICT_4X4_50},

@@ -16,6 +16,7 @@
 #include <opencv2/aruco/charuco.hpp>
 
 #include "core/camera.h"
+#include "core/options.h"
 
 namespace relit {
 
@@ -31,6 +32,10 @@ struct BoardSpec {
   double height_m() const { return squares_y * square_length_m; }
   int corner_count() const { return (squares_x - 1) * (squares_y - 1); }
 };
+
+// Reads a `board:` options section (squares_x, squares_y, square_length_m,
+// marker_length_m, dictionary) and checks it; errors name the file.
+void ReadBoardSpec(OptionsReader& reader, BoardSpec* board);
 
 // OpenCV predefined dictionary id for a name like "DICT_APRILTAG_36h11".
 int DictionaryId(const std::string& name);

@@ -64,15 +64,6 @@ std::string RunCapture(const std::string& command, const std::string& what) {
 
 }  // namespace
 
-std::string ShellQuote(const std::string& text) {
-  std::string quoted = "'";
-  for (char c : text) {
-    if (c == '\'') quoted += "'\\''";
-    else quoted += c;
-  }
-  return quoted + "'";
-}
-
 void VideoEncodeParams::Check() const {
   RELIT_REQUIRE(width_px > 0 && height_px > 0 && width_px % 2 == 0 && height_px % 2 == 0,
                 "video size must be positive and even (yuv420p), got ", width_px, "x", height_px);

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <string>
 #include <vector>
+#include "core/shell.h"
 
 namespace relit::synth {
 
@@ -66,7 +67,5 @@ struct MediaInfo {
 };
 MediaInfo ProbeMedia(const std::string& path);
 
-// Single-quotes a string for /bin/sh.
-std::string ShellQuote(const std::string& text);
 
 }  // namespace relit::synth

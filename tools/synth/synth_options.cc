@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/workspace.h"
 #include "core/error.h"
 #include "tools/synth/scene.h"
 
@@ -123,13 +124,8 @@ void SynthOptions::Read(OptionsReader& r) {
   r.ReadRange("eval_directional_lights", &eval_directional_lights, 0, 100);
   r.ReadRange("envmap_width_px", &envmap_width_px, 16, 16384);
   r.ReadRange("eval_min_angle_deg", &eval_min_angle_deg, 0.0, 90.0);
-  OptionsReader b = r.Child("board");
-  b.ReadRange("squares_x", &board.squares_x, 3, 100);
-  b.ReadRange("squares_y", &board.squares_y, 3, 100);
-  b.Read("square_length_m", &board.square_length_m);
-  b.Read("marker_length_m", &board.marker_length_m);
-  b.Read("dictionary", &board.dictionary);
-  b.Finish();
+  OptionsReader board_reader = r.Child("board");
+  ReadBoardSpec(board_reader, &board);
   r.Finish();
 }
 
@@ -227,10 +223,7 @@ nlohmann::json SynthOptions::ToJson() const {
       {"eval_point_lights", eval_point_lights},
       {"eval_directional_lights", eval_directional_lights},
       {"envmap_width_px", envmap_width_px}, {"eval_min_angle_deg", eval_min_angle_deg},
-      {"board",
-       {{"squares_x", board.squares_x}, {"squares_y", board.squares_y},
-        {"square_length_m", board.square_length_m}, {"marker_length_m", board.marker_length_m},
-        {"dictionary", board.dictionary}}},
+      {"board", relit::ToJson(board)},
   };
 }
 

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "core/workspace.h"
 #include "core/error.h"
 #include "core/json_file.h"
 
@@ -107,19 +108,15 @@ nlohmann::json MakeTruthJson(const SynthOptions& o, const SynthScene& scene, con
   const auto corners = CharucoCornersWorld(scene.board);
   nlohmann::json corner_json = nlohmann::json::array();
   for (const auto& c : corners) corner_json.push_back(Vec(c));
-  j["board"] = {{"squares_x", scene.board.squares_x},
-                {"squares_y", scene.board.squares_y},
-                {"square_length_m", scene.board.square_length_m},
-                {"marker_length_m", scene.board.marker_length_m},
-                {"dictionary", scene.board.dictionary},
-                {"opencv_layout", "OpenCV 4.6 cv::aruco::CharucoBoard::create"},
-                {"world_from_board", ToJson(WorldFromBoard(scene.board))},
-                {"corners_world_m", corner_json},
-                {"image", kBoardImagePath},
-                {"image_pixels_per_metre", scene.board_pixels_per_metre},
-                {"image_margin_px", scene.board_margin_px},
-                {"albedo_white", 0.80},
-                {"albedo_black", 0.03}};
+  j["board"] = relit::ToJson(scene.board);
+  j["board"].update({{"opencv_layout", "OpenCV 4.6 cv::aruco::CharucoBoard::create"},
+                     {"world_from_board", ToJson(WorldFromBoard(scene.board))},
+                     {"corners_world_m", corner_json},
+                     {"image", kBoardImagePath},
+                     {"image_pixels_per_metre", scene.board_pixels_per_metre},
+                     {"image_margin_px", scene.board_margin_px},
+                     {"albedo_white", 0.80},
+                     {"albedo_black", 0.03}});
   j["flash"] = {{"phone", "light"},
                 {"offset_cam_m", Vec(plan.flash_offset_cam_m)},
                 {"intensity_w_per_sr", {o.flash_intensity_w_per_sr, o.flash_intensity_w_per_sr,
