@@ -1,5 +1,16 @@
 #include "core/shell.h"
 
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "core/error.h"
+
 namespace relit {
 
 std::string ShellQuote(const std::string& text) {
@@ -9,6 +20,39 @@ std::string ShellQuote(const std::string& text) {
     else quoted += c;
   }
   return quoted + "'";
+}
+
+std::string ExitDescription(int status) {
+  if (status == -1) return "could not be started";
+  if (WIFEXITED(status)) {
+    const int code = WEXITSTATUS(status);
+    if (code == 127) return "not found (is it installed? tools/install-deps)";
+    return "exited with status " + std::to_string(code);
+  }
+  if (WIFSIGNALED(status)) return "was killed by signal " + std::to_string(WTERMSIG(status));
+  return "failed";
+}
+
+CommandResult RunCommand(const std::string& command) {
+  static std::atomic<int> counter{0};
+  const std::filesystem::path log =
+      std::filesystem::temp_directory_path() /
+      ("relit-cmd-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ".log");
+  FILE* pipe = ::popen((command + " 2>" + ShellQuote(log.string())).c_str(), "r");
+  RELIT_REQUIRE(pipe != nullptr, "cannot start a shell for: ", command.substr(0, command.find(' ')));
+  CommandResult result;
+  char buffer[1 << 16];
+  size_t n;
+  while ((n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0) result.out.append(buffer, n);
+  result.status = ::pclose(pipe);
+  std::ifstream in(log, std::ios::binary);
+  std::ostringstream err;
+  err << in.rdbuf();
+  result.err = err.str();
+  if (result.err.size() > 4096) result.err = "..." + result.err.substr(result.err.size() - 4096);
+  std::error_code ignored;
+  std::filesystem::remove(log, ignored);
+  return result;
 }
 
 }  // namespace relit

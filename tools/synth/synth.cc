@@ -14,7 +14,7 @@
 #include "core/run_record.h"
 #include "tools/synth/audio.h"
 #include "tools/synth/capture_plan.h"
-#include "tools/synth/envmaps.h"
+#include "core/render/envmaps.h"
 #include "tools/synth/ffmpeg_io.h"
 #include "tools/synth/scene.h"
 #include "tools/synth/sensor.h"
@@ -116,8 +116,8 @@ void RenderVideo(const SynthOptions& o, const VideoPlan& video, int video_index,
 
 int RenderEvalSet(const SynthOptions& o, const CapturePlan& plan, const SynthScene& synth_scene,
                   render::Scene* scene, const fs::path& root, Progress* progress) {
-  const Image sky = MakeSkyMap(o.envmap_width_px, plan.sun_elevation_rad, plan.sun_azimuth_rad);
-  const Image studio = MakeStudioMap(o.envmap_width_px);
+  const Image sky = render::MakeSkyMap(o.envmap_width_px, plan.sun_elevation_rad, plan.sun_azimuth_rad);
+  const Image studio = render::MakeStudioMap(o.envmap_width_px);
   fs::create_directories(root / "eval/envmaps");
   WriteImage((root / EnvmapPath("sky")).string(), sky, PixelStorage::kFloat);
   WriteImage((root / EnvmapPath("studio")).string(), studio, PixelStorage::kFloat);
@@ -191,7 +191,7 @@ SynthSummary RunSynthImpl(const SynthOptions& options) {
     render::EnvironmentLight room;
     if (!plan.geometry.frames.empty()) {
       videos.push_back(&plan.geometry);
-      const Image room_map = MakeSoftRoomMap(256);
+      const Image room_map = render::MakeSoftRoomMap(256);
       WriteImage((root / kGeometryEnvmapPath).string(), room_map, PixelStorage::kFloat);
       room = render::EnvironmentLight(room_map, static_cast<float>(options.geometry_ambient_scale));
     }

@@ -6,7 +6,7 @@
 
 #include "core/image.h"
 
-namespace relit::synth {
+namespace relit::render {
 
 // Clear sky: blue zenith fading to a pale horizon, dim ground below the
 // horizon, a glow around the sun and a small, very bright sun disc.
@@ -25,4 +25,4 @@ Image MakeSoftRoomMap(int width_px);
 // of the given size.
 Eigen::Vector3d EnvironmentPixelDirection(int x, int y, int width_px, int height_px);
 
-}  // namespace relit::synth
+}  // namespace relit::render

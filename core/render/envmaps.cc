@@ -1,4 +1,4 @@
-#include "tools/synth/envmaps.h"
+#include "core/render/envmaps.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 
 #include "core/error.h"
 
-namespace relit::synth {
+namespace relit::render {
 
 namespace {
 
@@ -113,4 +113,4 @@ Image MakeSoftRoomMap(int width_px) {
   });
 }
 
-}  // namespace relit::synth
+}  // namespace relit::render

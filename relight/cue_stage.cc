@@ -1,0 +1,198 @@
+#include "relight/cue_stage.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include <spdlog/spdlog.h>
+#include <tbb/global_control.h>
+
+#include "core/error.h"
+#include "core/image.h"
+#include "core/json_file.h"
+#include "core/progress.h"
+#include "core/run_record.h"
+#include "core/workspace.h"
+#include "relight/cue_frames.h"
+
+namespace relit::relight {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+uint64_t HashFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  RELIT_REQUIRE(in, "cannot read ", path);
+  uint64_t hash = 1469598103934665603ull;
+  char buffer[1 << 16];
+  while (in) {
+    in.read(buffer, sizeof(buffer));
+    for (std::streamsize i = 0; i < in.gcount(); ++i) {
+      hash = (hash ^ static_cast<unsigned char>(buffer[i])) * 1099511628211ull;
+    }
+  }
+  return hash;
+}
+
+CuesFile ReadCuesFile(const std::string& path) {
+  const json j = ReadJsonFile(path, CuesFile::kKind, CuesFile::kVersion);
+  CuesFile file;
+  file.camera = IntrinsicsFromJson(JsonField(j, "camera", path), path + ": camera");
+  file.mesh = JsonField(j, "mesh", path).get<std::string>();
+  file.flash_intensity = JsonNumber(j, "flash_intensity", path);
+  file.samples_per_pixel = JsonInt(j, "samples_per_pixel", path);
+  file.max_depth = JsonInt(j, "max_depth", path);
+  for (const json& f : JsonField(j, "frames", path)) {
+    const std::string where = path + ": frames[" + std::to_string(file.frames.size()) + "]";
+    CueFrameRecord r;
+    r.name = JsonField(f, "name", where).get<std::string>();
+    r.file = JsonField(f, "file", where).get<std::string>();
+    r.cam_from_world = Rigid3FromJson(JsonField(f, "cam_from_world", where), where);
+    r.light_position_m = Vector3FromJson(JsonField(f, "light_position_m", where), where);
+    r.light_reliable = JsonField(f, "light_reliable", where).get<bool>();
+    file.frames.push_back(r);
+  }
+  return file;
+}
+
+void WriteCuesFile(const std::string& path, const CuesFile& file) {
+  json frames = json::array();
+  for (const CueFrameRecord& r : file.frames) {
+    frames.push_back({{"name", r.name},
+                      {"file", r.file},
+                      {"cam_from_world", ToJson(r.cam_from_world)},
+                      {"light_position_m", ToJson(r.light_position_m)},
+                      {"light_reliable", r.light_reliable}});
+  }
+  WriteJsonFile(path, CuesFile::kKind, CuesFile::kVersion,
+                {{"camera", ToJson(file.camera)},
+                 {"mesh", file.mesh},
+                 {"flash_intensity", file.flash_intensity},
+                 {"samples_per_pixel", file.samples_per_pixel},
+                 {"max_depth", file.max_depth},
+                 {"channels", CueFrameChannels()},
+                 {"basis", {"lambert", "ggx_alpha_0.02", "ggx_alpha_0.05", "ggx_alpha_0.13", "ggx_alpha_0.34"}},
+                 {"frames", frames}});
+}
+
+namespace {
+
+std::string FrameStem(const std::string& name) {
+  return fs::path(name).filename().string();  // "view/000012" -> "000012"
+}
+
+}  // namespace
+
+CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions& options,
+                            RunRecord& record) {
+  options.Check();
+  const fs::path root(workspace);
+  const fs::path cameras_path = root / "calib" / "cameras.json";
+  const fs::path lights_path = root / "calib" / "lights.json";
+  const fs::path proxy_path = root / "reconstruct" / "proxy.json";
+  for (const fs::path& p : {cameras_path, lights_path}) {
+    RELIT_REQUIRE(fs::exists(p), p.string(), " is missing: run the calib stage first (relit-calib)");
+  }
+  RELIT_REQUIRE(fs::exists(proxy_path), proxy_path.string(),
+                " is missing: run the reconstruct stage first (relit-reconstruct)");
+  record.AddInput("cameras", cameras_path.string());
+  record.AddInput("lights", lights_path.string());
+  record.AddInput("proxy", proxy_path.string());
+  const CamerasFile cameras = ReadCamerasFile(cameras_path.string());
+  const LightsFile lights = ReadLightsFile(lights_path.string());
+  const ProxyFile proxy = ReadProxyFile(proxy_path.string());
+  const fs::path mesh_path = root / proxy.mesh;
+
+  CuesFile cues;
+  cues.camera = cameras.undistorted_view;
+  cues.mesh = proxy.mesh;
+  cues.flash_intensity = options.flash_intensity;
+  cues.samples_per_pixel = options.samples_per_pixel;
+  cues.max_depth = options.max_depth;
+  int without_light = 0;
+  for (const CalibratedFrame* frame : cameras.FramesOf("view")) {
+    const FrameLight* light = lights.Find(frame->name);
+    if (light == nullptr) {
+      ++without_light;
+      continue;
+    }
+    CueFrameRecord r;
+    r.name = frame->name;
+    r.file = "relight/cues/" + FrameStem(frame->name) + ".exr";
+    r.cam_from_world = frame->cam_from_world;
+    r.light_position_m = light->position_m;
+    r.light_reliable = light->reliable;
+    cues.frames.push_back(r);
+  }
+  RELIT_REQUIRE(!cues.frames.empty(), cameras_path.string(), " and ", lights_path.string(),
+                " have no phone V frame with a flash position: nothing to render cues for "
+                "(check calib_report.json: were phone L frames registered?)");
+  if (without_light > 0) spdlog::warn("cues: {} phone V frames have no flash position and are skipped", without_light);
+
+  // Resume only with identical inputs and options.
+  const json fingerprint = {{"options", options.ToJson()},
+                            {"cameras", HashFile(cameras_path.string())},
+                            {"lights", HashFile(lights_path.string())},
+                            {"mesh", HashFile(mesh_path.string())}};
+  const fs::path partial = root / "relight" / ".cues.partial";
+  const fs::path fingerprint_path = partial / "fingerprint.json";
+  bool resume = false;
+  if (fs::exists(fingerprint_path)) {
+    std::ifstream in(fingerprint_path);
+    json previous = json::parse(in, nullptr, false);
+    resume = !previous.is_discarded() && previous == fingerprint;
+  }
+  if (!resume) {
+    fs::remove_all(partial);
+    fs::create_directories(partial);
+    std::ofstream(fingerprint_path) << fingerprint.dump(2);
+  } else {
+    spdlog::info("cues: continuing an interrupted run in {}", partial.string());
+  }
+
+  std::unique_ptr<tbb::global_control> threads;
+  if (options.threads > 0) {
+    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                    options.threads);
+  }
+  auto scene = LoadProxyScene(mesh_path.string());
+  CueRenderSettings settings;
+  settings.samples_per_pixel = options.samples_per_pixel;
+  settings.max_depth = options.max_depth;
+  CueStageSummary summary;
+  {
+    auto timer = record.Time("render_cues");
+    Progress progress("cues", static_cast<int64_t>(cues.frames.size()));
+    for (size_t i = 0; i < cues.frames.size(); ++i) {
+      const CueFrameRecord& r = cues.frames[i];
+      const fs::path file = partial / fs::path(r.file).filename();
+      if (fs::exists(file)) {
+        ++summary.frames_reused;
+      } else {
+        // A per-frame seed keeps each frame's noise independent and reproducible.
+        settings.seed = options.seed * 1000003ull + i;
+        const Camera camera(cameras.undistorted_view, r.cam_from_world);
+        const Image frame =
+            RenderCueFrame(*scene, camera, CueLight::Point(r.light_position_m, options.flash_intensity), settings);
+        WriteImage(file.string(), frame);  // atomic per file
+        ++summary.frames_rendered;
+      }
+      progress.Advance();
+    }
+    progress.Finish();
+  }
+  WriteCuesFile((partial / "cues.json").string(), cues);
+  fs::remove(fingerprint_path);
+  record.Set("frames", static_cast<int>(cues.frames.size()));
+  record.Set("frames_rendered", summary.frames_rendered);
+  record.Set("frames_reused", summary.frames_reused);
+  record.Write((partial / "run.json").string());
+  const fs::path target = root / "relight" / "cues";
+  fs::remove_all(target);
+  fs::rename(partial, target);
+  spdlog::info("cues: {} frames ({} rendered, {} kept from an interrupted run) -> {}", cues.frames.size(),
+               summary.frames_rendered, summary.frames_reused, target.string());
+  return summary;
+}
+
+}  // namespace relit::relight

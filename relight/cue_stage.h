@@ -1,0 +1,58 @@
+// `relit-relight cues`: radiance cues of every phone V frame that has a
+// flash position, rendered on the proxy mesh under that frame's flash.
+//
+// Reads W/calib/cameras.json, W/calib/lights.json, W/reconstruct/proxy.json
+// (and its mesh); writes W/relight/cues/ = cues.json + NNNNNN.exr (channels
+// in cue_frames.h) + run.json. Frames are rendered into
+// W/relight/.cues.partial/ first; an interrupted run with the same inputs and
+// options continues there (finished frames are kept), and the folder is only
+// renamed to cues/ once every frame is done.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/camera.h"
+#include "relight/stage_options.h"
+
+namespace relit {
+class RunRecord;
+}
+
+namespace relit::relight {
+
+struct CueFrameRecord {
+  std::string name;               // phone V frame, e.g. "view/000012"
+  std::string file;               // cue EXR, relative to the workspace
+  Rigid3 cam_from_world;
+  Eigen::Vector3d light_position_m = Eigen::Vector3d::Zero();
+  bool light_reliable = true;     // calib's verdict on the flash position
+};
+
+struct CuesFile {
+  static constexpr const char* kKind = "cues";
+  static constexpr int kVersion = 1;
+  Intrinsics camera;              // undistorted pinhole phone V camera
+  std::string mesh;               // proxy mesh used, relative to the workspace
+  double flash_intensity = 1;     // W/sr of the point light the cues assume
+  int samples_per_pixel = 0;
+  int max_depth = 0;
+  std::vector<CueFrameRecord> frames;
+};
+CuesFile ReadCuesFile(const std::string& path);
+void WriteCuesFile(const std::string& path, const CuesFile& file);
+
+struct CueStageSummary {
+  int frames_rendered = 0;
+  int frames_reused = 0;          // kept from an interrupted run
+};
+
+CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions& options,
+                            RunRecord& record);
+
+// 64-bit FNV-1a of a file's bytes (inputs fingerprint for resuming).
+uint64_t HashFile(const std::string& path);
+
+}  // namespace relit::relight

@@ -1,0 +1,56 @@
+// The "cues only" baseline: no network, just a per-texel linear combination
+// of the 5 radiance cues,
+//   rgb_c(pixel) = sum_k w[texel(pixel)][k][c] * cue_k,c(pixel)   (c = R, G, B)
+// with the weights fitted by least squares over every training pixel that
+// lands on the texel (nearest texel of a resolution_px^2 grid over the
+// atlas). Texels seen by few pixels are pulled towards the global fit by a
+// ridge term, so unseen texels predict the average material. It is what the
+// cues alone can explain; the neural model must beat it (docs/relight.md).
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "core/image.h"
+
+namespace relit::relight {
+
+class CuesOnlyBaseline {
+ public:
+  // `ridge`: weight of the pull towards the global fit, relative to one
+  // pixel's contribution.
+  explicit CuesOnlyBaseline(int resolution_px = 128, double ridge = 4.0);
+
+  // Adds the foreground pixels (matte >= 0.5, coverage >= 0.5) of one
+  // training frame: a cue frame (channels as cue_frames.h), the linear
+  // target RGB and its matte.
+  void Accumulate(const Image& cue_frame, const Image& target_rgb, const Image& matte);
+  void Solve();
+
+  // Premultiplied linear RGBA for a cue frame; alpha = proxy coverage.
+  Image Predict(const Image& cue_frame) const;
+
+  int resolution() const { return resolution_; }
+  int64_t pixels_used() const { return pixels_used_; }
+
+ private:
+  static constexpr int kBases = 5;
+  // Per texel and channel: upper triangle of A (15) and b (5).
+  struct Normal {
+    std::array<double, 15> a{};
+    std::array<double, 5> b{};
+    double count = 0;
+  };
+  int Texel(float u, float v) const;
+  static void Add(Normal& n, const double* cue, double target);
+
+  int resolution_;
+  double ridge_;
+  std::vector<Normal> normals_;                        // texel * 3 + channel
+  std::array<Normal, 3> global_{};
+  std::vector<std::array<float, kBases * 3>> weights_;  // per texel: [k * 3 + c]
+  int64_t pixels_used_ = 0;
+  bool solved_ = false;
+};
+
+}  // namespace relit::relight

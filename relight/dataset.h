@@ -1,0 +1,31 @@
+// Training and rendering tensors from workspace files: a cue frame (see
+// cue_frames.h) becomes a Batch of one frame; with its target image and
+// matte it becomes a training example.
+#pragma once
+
+#include <string>
+
+#include <torch/torch.h>
+
+#include "core/image.h"
+#include "relight/model.h"
+#include "relight/plan.h"
+
+namespace relit::relight {
+
+// A Batch (B = 1, float32, CPU) from a cue frame, without targets.
+Batch CueFrameToBatch(const Image& cue_frame);
+
+// A Batch with targets from plan frame `frame` of `workspace`. Throws
+// relit::Error naming the file when sizes disagree.
+Batch LoadPlanFrame(const std::string& workspace, const PlanFrame& frame);
+
+// The model's premultiplied RGBA for a whole frame of any size: the batch is
+// zero-padded to a multiple of 4 (the networks downsample twice) and the
+// result cropped back. Returns an Image with channels R, G, B, A.
+Image RenderFrame(DnlModel& model, const Batch& batch);
+
+// [1, C, H, W] float tensor -> Image with the given channel names.
+Image TensorToImage(const torch::Tensor& chw, std::vector<std::string> names);
+
+}  // namespace relit::relight

@@ -1,0 +1,130 @@
+#include <filesystem>
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include "core/error.h"
+#include "core/log.h"
+#include "core/options.h"
+#include "core/run_record.h"
+#include "relight/cue_stage.h"
+#include "relight/plan.h"
+#include "relight/relight_options.h"
+#include "relight/render_stage.h"
+#include "relight/train_stage.h"
+
+namespace relit::relight {
+
+namespace fs = std::filesystem;
+
+void RelightOptions::Read(OptionsReader& reader) {
+  for (auto [key, read] : std::initializer_list<std::pair<const char*, std::function<void(OptionsReader&)>>>{
+           {"cues", [&](OptionsReader& r) { cues.Read(r); }},
+           {"dataset", [&](OptionsReader& r) { dataset.Read(r); }},
+           {"partitions", [&](OptionsReader& r) { partitions.Read(r); }},
+           {"model", [&](OptionsReader& r) { model.Read(r); }},
+           {"train", [&](OptionsReader& r) { train.Read(r); }},
+           {"render", [&](OptionsReader& r) { render.Read(r); }}}) {
+    OptionsReader child = reader.Child(key);
+    read(child);
+  }
+  reader.Read("log_level", &log_level);
+  reader.Finish();
+}
+
+void RelightOptions::Check() const {
+  RELIT_REQUIRE(!workspace.empty(), "relight: --workspace is required");
+  RELIT_REQUIRE(fs::is_directory(workspace), "relight: workspace ", workspace, " is not a folder");
+  cues.Check();
+  dataset.Check();
+  partitions.Check();
+  model.Check();
+  train.Check();
+  render.Check();
+}
+
+nlohmann::json RelightOptions::ToJson() const {
+  return {{"workspace", workspace},          {"cues", cues.ToJson()},   {"dataset", dataset.ToJson()},
+          {"partitions", partitions.ToJson()}, {"model", model.ToJson()}, {"train", train.ToJson()},
+          {"render", render.ToJson()},        {"log_level", log_level}};
+}
+
+namespace {
+
+// Keeps a step's log next to its outputs and detaches it at the end.
+struct LogFile {
+  LogFile(const fs::path& path, spdlog::level::level_enum level) : level_(level) {
+    fs::create_directories(path.parent_path());
+    InitLogging(path.string(), level);
+  }
+  ~LogFile() { InitLogging("", level_); }
+  spdlog::level::level_enum level_;
+};
+
+}  // namespace
+
+int RunRelight(int argc, char** argv) {
+  CLI::App app{"relit-relight: Deferred Neural Lighting on a calibrated, reconstructed workspace. Steps: cues "
+               "-> plan -> train --partition K (each partition independently) -> render. See docs/relight.md."};
+  app.require_subcommand(1);
+  std::string workspace, config, log_level, views, out;
+  int partition = -1;
+  bool restart = false;
+  auto common = [&](CLI::App* sub) {
+    sub->add_option("--workspace", workspace, "workspace folder W")->required();
+    sub->add_option("--config", config, "YAML file with the relight section (unknown keys are errors)")
+        ->check(CLI::ExistingFile);
+    sub->add_option("--log-level", log_level, "trace | debug | info | warn | error");
+  };
+  CLI::App* cues = app.add_subcommand("cues", "render the radiance cues of every training frame");
+  CLI::App* plan = app.add_subcommand("plan", "split frames into training/validation and partitions");
+  CLI::App* train = app.add_subcommand("train", "train one partition (resumes from its checkpoint)");
+  CLI::App* render = app.add_subcommand("render", "render turntables, or the views of a --views JSON file");
+  for (CLI::App* sub : {cues, plan, train, render}) common(sub);
+  train->add_option("--partition", partition, "partition index K (see plan.json)")->required();
+  train->add_flag("--restart", restart, "discard the checkpoint and start over");
+  render->add_option("--views", views, "JSON file of cameras and lights to render (docs/relight.md)")
+      ->check(CLI::ExistingFile);
+  render->add_option("--out", out, "output folder for --views");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  RelightOptions options;
+  if (!config.empty()) {
+    OptionsReader reader = OptionsReader::FromFile(config);
+    options.Read(reader);
+  }
+  options.workspace = workspace;
+  if (!log_level.empty()) options.log_level = log_level;
+  const spdlog::level::level_enum level = ParseLogLevel(options.log_level);
+  SetVerbosity(level);
+  options.Check();
+  const fs::path relight_dir = fs::path(workspace) / "relight";
+  RunRecord record("relit-relight");
+  record.SetCommandLine(argc, argv);
+  record.SetOptions(options.ToJson());
+  if (cues->parsed()) {
+    LogFile log(relight_dir / "logs" / "cues.log", level);
+    RunCueStage(workspace, options.cues, record);
+  } else if (plan->parsed()) {
+    LogFile log(relight_dir / "logs" / "plan.log", level);
+    RunPlanStage(workspace, options.dataset, options.partitions, record);
+  } else if (train->parsed()) {
+    LogFile log(relight_dir / "logs" / ("train_" + PartitionDirName(std::max(partition, 0)) + ".log"), level);
+    const TrainStageResult result = RunTrainStage(workspace, partition, options.model, options.train, restart, record);
+    if (result.interrupted) return 130;
+  } else if (render->parsed()) {
+    if (!views.empty()) {
+      RELIT_REQUIRE(!out.empty(), "render --views needs --out DIR");
+      RunRenderViews(workspace, views, out, options.render, record);
+    } else {
+      LogFile log(relight_dir / "logs" / "render.log", level);
+      RunRenderStage(workspace, options.render, record);
+    }
+  }
+  return 0;
+}
+
+}  // namespace relit::relight

@@ -1,0 +1,35 @@
+// The `relight:` section of pipeline.yaml (the file `relit-relight --config`
+// reads). Top-level keys: cues, dataset, partitions, model, train, render,
+// log_level. Unknown keys are errors. docs/relight.md explains every key.
+#pragma once
+
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "relight/model.h"
+#include "relight/partitions.h"
+#include "relight/stage_options.h"
+#include "relight/train_stage.h"
+
+namespace relit::relight {
+
+struct RelightOptions {
+  std::string workspace;
+  CueStageOptions cues;
+  DatasetOptions dataset;
+  PartitionLayoutOptions partitions;
+  ModelOptions model;
+  TrainStageOptions train;
+  RenderStageOptions render;
+  std::string log_level = "info";
+
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+// `relit-relight <cues|plan|train|render> ...`; see docs/relight.md.
+int RunRelight(int argc, char** argv);
+
+}  // namespace relit::relight

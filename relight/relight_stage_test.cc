@@ -1,0 +1,230 @@
+// The relight stage on a small ground-truth workspace: cues -> plan ->
+// train -> render, the learning check against the cues-only baseline, exact
+// resume, and errors for missing inputs.
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "core/error.h"
+#include "core/image.h"
+#include "core/run_record.h"
+#include "relight/checkpoint.h"
+#include "relight/cue_frames.h"
+#include "relight/cue_stage.h"
+#include "relight/cues_baseline.h"
+#include "relight/dataset.h"
+#include "relight/metrics.h"
+#include "relight/plan.h"
+#include "relight/render_stage.h"
+#include "relight/test_workspace.h"
+#include "relight/train_stage.h"
+
+namespace relit::relight {
+namespace {
+
+namespace fs = std::filesystem;
+
+double Seconds(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+ModelOptions SmallModel() {
+  ModelOptions m;
+  m.texture_resolution_px = 128;
+  m.channels_per_basis = 4;
+  m.ngf = 16;
+  m.n_blocks = 3;
+  m.mask_ngf = 8;
+  m.mask_n_blocks = 2;
+  return m;
+}
+
+TrainStageOptions SmallTraining(int steps) {
+  TrainStageOptions t;
+  t.steps = steps;
+  t.checkpoint_every = 100;
+  t.validate_every = 0;
+  t.log_every = 10;
+  t.optimizer.crop_px = 64;
+  t.optimizer.learning_rate = 2e-3;  // small model, short run
+  t.optimizer.seed = 5;
+  t.optimizer.threads = 2;
+  return t;
+}
+
+class RelightStageTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = (fs::temp_directory_path() / ("relit_relight_stage_" + std::to_string(::getpid()))).string();
+    const auto start = std::chrono::steady_clock::now();
+    testing::TestWorkspaceOptions o;
+    testing::MakeTestWorkspace(dir_, o);
+    std::printf("workspace: %.1f s\n", Seconds(start));
+    const auto cues_start = std::chrono::steady_clock::now();
+    CueStageOptions cues;
+    cues.samples_per_pixel = 8;
+    RunRecord record("test");
+    RunCueStage(dir_, cues, record);
+    std::printf("cues: %.1f s\n", Seconds(cues_start));
+    DatasetOptions dataset;
+    dataset.holdout_every = 4;
+    PartitionLayoutOptions layout;
+    layout.layout = "single";
+    RunPlanStage(dir_, dataset, layout, record);
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+  static std::string dir_;
+};
+std::string RelightStageTest::dir_;
+
+TEST_F(RelightStageTest, CuesAndPlanDescribeEveryFrame) {
+  const CuesFile cues = ReadCuesFile(dir_ + "/relight/cues/cues.json");
+  EXPECT_EQ(cues.frames.size(), 24u);
+  const Image first = ReadCueFrame(dir_ + "/" + cues.frames[0].file);
+  EXPECT_EQ(first.channels(), 22);
+  EXPECT_EQ(first.width(), 160);
+  // The proxy covers part of the frame, with uvs in [0, 1] where it does.
+  int covered = 0;
+  for (int y = 0; y < first.height(); ++y) {
+    for (int x = 0; x < first.width(); ++x) {
+      if (first.at(x, y, 21) < 1) continue;
+      ++covered;
+      EXPECT_GE(first.at(x, y, 15), 0.0f);
+      EXPECT_LE(first.at(x, y, 15), 1.0f);
+    }
+  }
+  EXPECT_GT(covered, 500);
+  const Plan plan = ReadPlan(dir_ + "/relight/plan/plan.json");
+  ASSERT_EQ(plan.partitions.size(), 1u);
+  EXPECT_EQ(plan.partitions[0].train_frames.size(), 18u);
+  EXPECT_EQ(plan.partitions[0].validation_frames.size(), 6u);
+  EXPECT_GT(plan.max_radiance, 0.0);
+}
+
+// Learning on real cue frames: after a short training run the held-out
+// frames are far better than the untrained model's, and the mask matches the
+// mattes. The cues-only baseline (per-texel least squares) is measured and
+// printed next to it; at this test budget (300 steps, ~1.5 min) the network
+// does not reach it yet (docs/relight.md, "Learning check"), so that
+// comparison is reported, not asserted.
+TEST_F(RelightStageTest, TrainingImprovesHeldOutFramesAndIsComparedWithCuesOnlyBaseline) {
+  const auto start = std::chrono::steady_clock::now();
+  RunRecord record("test");
+  const TrainStageOptions training = SmallTraining(300);
+  const TrainStageResult result = RunTrainStage(dir_, 0, SmallModel(), training, true, record);
+  std::printf("training: %lld steps in %.1f s\n", static_cast<long long>(result.steps), Seconds(start));
+  ASSERT_FALSE(result.skipped);
+
+  const Plan plan = ReadPlan(dir_ + "/relight/plan/plan.json");
+  CuesOnlyBaseline baseline(SmallModel().texture_resolution_px);
+  for (int index : plan.partitions[0].train_frames) {
+    const PlanFrame& f = plan.frames[index];
+    baseline.Accumulate(ReadCueFrame(dir_ + "/" + f.cues), ReadImage(dir_ + "/" + f.image),
+                        ReadImage(dir_ + "/" + f.matte));
+  }
+  baseline.Solve();
+  DnlModel trained = LoadModel(fs::path(dir_) / "relight/partitions/00/checkpoint");
+  ModelOptions untrained_options = SmallModel();
+  untrained_options.max_radiance = plan.max_radiance;
+  Trainer untrained(untrained_options, training.optimizer);  // same seed, step 0
+  std::vector<ImageMetrics> model_metrics, untrained_metrics, baseline_metrics;
+  for (int index : plan.partitions[0].validation_frames) {
+    const PlanFrame& f = plan.frames[index];
+    const Image cues = ReadCueFrame(dir_ + "/" + f.cues);
+    const Image target = ReadImage(dir_ + "/" + f.image);
+    const Image matte = ReadImage(dir_ + "/" + f.matte);
+    const Batch batch = CueFrameToBatch(cues);
+    model_metrics.push_back(CompareToReference(RenderFrame(trained, batch), target, matte));
+    untrained_metrics.push_back(CompareToReference(RenderFrame(untrained.model(), batch), target, matte));
+    baseline_metrics.push_back(CompareToReference(baseline.Predict(cues), target, matte));
+  }
+  const ImageMetrics ours = PoolMetrics(model_metrics), before = PoolMetrics(untrained_metrics),
+                     theirs = PoolMetrics(baseline_metrics);
+  std::printf("held-out PSNR: trained %.2f dB (MAE %.4f, alpha MAE %.4f), untrained %.2f dB (alpha MAE %.4f), "
+              "cues-only baseline %.2f dB (MAE %.4f)\n",
+              ours.psnr_db, ours.mae, ours.alpha_mae, before.psnr_db, before.alpha_mae, theirs.psnr_db, theirs.mae);
+  EXPECT_GT(ours.psnr_db, before.psnr_db + 3.0);
+  EXPECT_LT(ours.alpha_mae, 0.02);
+  EXPECT_LT(ours.alpha_mae, 0.2 * before.alpha_mae);
+  EXPECT_NEAR(result.val_psnr_db, ours.psnr_db, 3.0);  // the stage's own validation agrees (subset of frames)
+}
+
+// Training 40 steps in two runs (20, then continued to 40) logs the same
+// losses as one uninterrupted 40-step run.
+TEST_F(RelightStageTest, ContinuedTrainingReproducesTheUninterruptedRun) {
+  auto losses = [&](const std::string& log) {
+    std::vector<double> values;
+    std::ifstream in(log);
+    std::string line;
+    while (std::getline(in, line)) {
+      const auto j = nlohmann::json::parse(line);
+      if (j.contains("loss")) values.push_back(j["loss"].get<double>());
+    }
+    return values;
+  };
+  RunRecord record("test");
+  TrainStageOptions options = SmallTraining(40);
+  options.checkpoint_every = 20;
+  RunTrainStage(dir_, 0, SmallModel(), options, true, record);
+  const std::vector<double> straight = losses(dir_ + "/relight/partitions/00/log.jsonl");
+  options.steps = 20;
+  RunTrainStage(dir_, 0, SmallModel(), options, true, record);
+  options.steps = 40;
+  const TrainStageResult continued = RunTrainStage(dir_, 0, SmallModel(), options, false, record);
+  EXPECT_EQ(continued.resumed_from, 20);
+  const std::vector<double> resumed = losses(dir_ + "/relight/partitions/00/log.jsonl");
+  ASSERT_EQ(straight.size(), 4u);
+  ASSERT_EQ(resumed.size(), 4u);
+  for (size_t i = 0; i < straight.size(); ++i) EXPECT_EQ(straight[i], resumed[i]) << "log line " << i;
+  // Changed model options: the checkpoint is not reused.
+  ModelOptions other = SmallModel();
+  other.ngf = 8;
+  EXPECT_EQ(RunTrainStage(dir_, 0, other, options, false, record).resumed_from, 0);
+}
+
+TEST_F(RelightStageTest, RenderWritesTurntablesFromTheTrainedPartition) {
+  RunRecord record("test");
+  RunTrainStage(dir_, 0, SmallModel(), SmallTraining(20), true, record);
+  RenderStageOptions options;
+  options.frames = 3;
+  options.samples_per_pixel = 4;
+  options.write_mp4 = true;
+  RunRenderStage(dir_, options, record);
+  for (const std::string kind : {"point", "env"}) {
+    const fs::path dir = fs::path(dir_) / "relight/render" / ("turntable_" + kind);
+    const Image frame = ReadImage((dir / "0001.exr").string());
+    EXPECT_EQ(frame.channels(), 4);
+    double alpha = 0;
+    for (int y = 0; y < frame.height(); ++y) {
+      for (int x = 0; x < frame.width(); ++x) alpha += frame.at(x, y, 3);
+    }
+    EXPECT_GT(alpha, 200.0) << kind;  // the object is in view
+    EXPECT_TRUE(fs::exists(dir / "0002.png"));
+    EXPECT_GT(fs::file_size(fs::path(dir_) / "relight/render" / ("turntable_" + kind + ".mp4")), 1000u);
+  }
+}
+
+TEST(RelightStageErrors, MissingUpstreamOutputsNameTheStageToRun) {
+  const std::string dir = (fs::temp_directory_path() / ("relit_relight_err_" + std::to_string(::getpid()))).string();
+  fs::create_directories(dir);
+  RunRecord record("test");
+  try {
+    RunCueStage(dir, CueStageOptions(), record);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("calib"), std::string::npos) << e.what();
+  }
+  try {
+    RunTrainStage(dir, 0, SmallModel(), SmallTraining(1), false, record);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("relit-relight plan"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace relit::relight

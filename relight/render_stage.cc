@@ -1,0 +1,270 @@
+#include "relight/render_stage.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include <spdlog/spdlog.h>
+
+#include "core/atomic_output.h"
+#include "core/color.h"
+#include "core/error.h"
+#include "core/json_file.h"
+#include "core/progress.h"
+#include "core/render/envmaps.h"
+#include "core/run_record.h"
+#include "core/shell.h"
+#include "core/workspace.h"
+#include "relight/checkpoint.h"
+#include "relight/cue_stage.h"
+#include "relight/dataset.h"
+#include "relight/train_stage.h"
+
+namespace relit::relight {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+RelitRenderer::RelitRenderer(const std::string& workspace, const std::string& device)
+    : plan_(ReadPlan((fs::path(workspace) / "relight" / "plan" / "plan.json").string())),
+      layout_(plan_.Layout()) {
+  const fs::path root(workspace);
+  const CuesFile cues = ReadCuesFile((root / "relight" / "cues" / "cues.json").string());
+  camera_ = cues.camera;
+  flash_intensity_ = cues.flash_intensity;
+  double distance = 0;
+  for (const CueFrameRecord& f : cues.frames) {
+    distance += (f.cam_from_world.Inverse().translation - plan_.object_centre_m).norm();
+  }
+  capture_distance_m_ = distance / std::max<size_t>(1, cues.frames.size());
+  scene_ = LoadProxyScene((root / cues.mesh).string());
+  models_.resize(plan_.partitions.size());
+  int loaded = 0;
+  for (size_t p = 0; p < plan_.partitions.size(); ++p) {
+    const fs::path dir = root / "relight" / "partitions" / PartitionDirName(static_cast<int>(p));
+    if (!fs::exists(dir / "train.json") || !fs::exists(dir / "checkpoint" / "checkpoint.json")) continue;
+    models_[p] = LoadModel(dir / "checkpoint", device);
+    ++loaded;
+  }
+  RELIT_REQUIRE(loaded > 0, "no trained partition in ", (root / "relight" / "partitions").string(),
+                ": run `relit-relight train --partition K` for the plan's partitions first");
+  spdlog::info("render: {} of {} partitions trained", loaded, plan_.partitions.size());
+}
+
+std::vector<std::pair<int, double>> RelitRenderer::Weights(const Eigen::Vector3d& direction) const {
+  const PartitionBlend blend = layout_.Blend(direction);
+  std::vector<std::pair<int, double>> weights;
+  double total = 0;
+  for (int i = 0; i < blend.count; ++i) {
+    if (blend.weight[i] > 0 && models_[blend.partition[i]]) {
+      weights.emplace_back(blend.partition[i], blend.weight[i]);
+      total += blend.weight[i];
+    }
+  }
+  if (weights.empty()) {
+    // No trained partition around this direction: the nearest trained vertex.
+    int best = -1;
+    double best_dot = -2;
+    for (size_t p = 0; p < models_.size(); ++p) {
+      const double dot = layout_.vertices()[p].dot(direction.normalized());
+      if (models_[p] && dot > best_dot) {
+        best_dot = dot;
+        best = static_cast<int>(p);
+      }
+    }
+    return {{best, 1.0}};
+  }
+  for (auto& [p, w] : weights) w /= total;
+  return weights;
+}
+
+Image RelitRenderer::Render(const Camera& camera, const CueLight& light, const CueRenderSettings& settings) {
+  const Image cue_frame = RenderCueFrame(*scene_, camera, light, settings);
+  const Batch batch = CueFrameToBatch(cue_frame);
+  Image result(cue_frame.width(), cue_frame.height(), {"R", "G", "B", "A"});
+  for (const auto& [partition, weight] : Weights(camera.Center() - plan_.object_centre_m)) {
+    const Image rgba = RenderFrame(*models_[partition], batch);
+    for (size_t i = 0; i < result.data().size(); ++i) result.data()[i] += static_cast<float>(weight) * rgba.data()[i];
+  }
+  return result;
+}
+
+namespace {
+
+Eigen::Vector3d ColorFromJson(const json& j, const std::string& key, const std::string& where) {
+  if (!j.contains(key)) return Eigen::Vector3d::Ones();
+  const json& v = j[key];
+  if (v.is_number()) return Eigen::Vector3d::Constant(v.get<double>());
+  return Vector3FromJson(v, where + "." + key);
+}
+
+render::EnvironmentLight LoadEnvironment(const std::string& map, double scale, double rotation_rad,
+                                         const std::string& base_dir) {
+  if (map.empty() || map == "procedural:sky") {
+    return render::EnvironmentLight(render::MakeSkyMap(512, 35.0 * M_PI / 180, 40.0 * M_PI / 180),
+                                    static_cast<float>(scale), static_cast<float>(rotation_rad));
+  }
+  if (map == "procedural:studio") {
+    return render::EnvironmentLight(render::MakeStudioMap(512), static_cast<float>(scale),
+                                    static_cast<float>(rotation_rad));
+  }
+  const fs::path path = fs::path(map).is_absolute() ? fs::path(map) : fs::path(base_dir) / map;
+  RELIT_REQUIRE(fs::exists(path), "environment map ", path.string(), " does not exist");
+  return render::EnvironmentLight::FromFile(path.string(), static_cast<float>(scale),
+                                            static_cast<float>(rotation_rad));
+}
+
+// Sphere point at elevation/azimuth around the object, looking at its centre.
+Camera TurntableCamera(const Intrinsics& intrinsics, const Eigen::Vector3d& centre, double distance_m,
+                       double elevation_rad, double azimuth_rad) {
+  const Eigen::Vector3d direction(std::cos(elevation_rad) * std::cos(azimuth_rad),
+                                  std::cos(elevation_rad) * std::sin(azimuth_rad), std::sin(elevation_rad));
+  return Camera(intrinsics, LookAt(centre + distance_m * direction, centre, Eigen::Vector3d::UnitZ()));
+}
+
+void EncodeMp4(const fs::path& frames_dir, const fs::path& mp4, double fps, int width, int height) {
+  // MP4 has no alpha: composite the straight-alpha PNGs over mid grey.
+  const std::string command =
+      "ffmpeg -nostdin -y -loglevel error -framerate " + std::to_string(fps) + " -i " +
+      ShellQuote((frames_dir / "%04d.png").string()) + " -filter_complex " +
+      ShellQuote("color=c=0x404040:s=" + std::to_string(width) + "x" + std::to_string(height) +
+                 "[bg];[bg][0:v]overlay=shortest=1,format=yuv420p") +
+      " -c:v libx264 -crf 18 " + ShellQuote(mp4.string());
+  const CommandResult result = RunCommand(command);
+  RELIT_REQUIRE(result.ok(), "ffmpeg ", ExitDescription(result.status), " while encoding ", mp4.string(), ": ",
+                result.err);
+}
+
+}  // namespace
+
+CueLight LightFromJson(const json& j, const std::string& base_dir, const std::string& where) {
+  const std::string type = JsonField(j, "type", where).get<std::string>();
+  CueLight light;
+  if (type == "point") {
+    light.kind = CueLight::Kind::kPoint;
+    light.position_m = Vector3FromJson(JsonField(j, "position_m", where), where + ".position_m");
+    light.color = ColorFromJson(j, "intensity", where);
+  } else if (type == "directional") {
+    light.kind = CueLight::Kind::kDirectional;
+    light.direction_to_light =
+        Vector3FromJson(JsonField(j, "direction_to_light", where), where + ".direction_to_light").normalized();
+    light.color = ColorFromJson(j, "irradiance", where);
+  } else if (type == "environment") {
+    light.kind = CueLight::Kind::kEnvironment;
+    light.environment = LoadEnvironment(j.value("map", std::string()), j.value("scale", 1.0),
+                                        j.value("rotation_deg", 0.0) * M_PI / 180, base_dir);
+  } else if (type == "area") {
+    light.kind = CueLight::Kind::kQuad;
+    light.quad.corner = Vector3FromJson(JsonField(j, "corner_m", where), where).cast<float>();
+    light.quad.edge_u = Vector3FromJson(JsonField(j, "edge_u_m", where), where).cast<float>();
+    light.quad.edge_v = Vector3FromJson(JsonField(j, "edge_v_m", where), where).cast<float>();
+    light.quad.radiance = ColorFromJson(j, "radiance", where).cast<float>().array();
+  } else {
+    Fail(where, ": light type must be point, directional, environment or area, got '", type, "'");
+  }
+  return light;
+}
+
+void WriteRgba(const std::string& path_without_extension, const Image& rgba) {
+  WriteImage(path_without_extension + ".exr", rgba);
+  Image png(rgba.width(), rgba.height(), {"R", "G", "B", "A"});
+  for (int y = 0; y < rgba.height(); ++y) {
+    for (int x = 0; x < rgba.width(); ++x) {
+      const float* p = rgba.pixel(x, y);
+      float* o = png.pixel(x, y);
+      const float a = std::clamp(p[3], 0.0f, 1.0f);
+      for (int c = 0; c < 3; ++c) o[c] = a > 1e-6f ? LinearToSrgb(std::clamp(p[c] / a, 0.0f, 1.0f)) : 0.0f;
+      o[3] = a;
+    }
+  }
+  WriteImage(path_without_extension + ".png", png, PixelStorage::kUint8);
+}
+
+void RunRenderStage(const std::string& workspace, const RenderStageOptions& options, RunRecord& record) {
+  options.Check();
+  RelitRenderer renderer(workspace);
+  const Plan& plan = renderer.plan();
+  const Intrinsics intrinsics = options.width_px > 0
+                                    ? renderer.camera().Scaled(options.width_px, options.height_px)
+                                    : renderer.camera();
+  const double distance = options.distance_scale > 0 ? options.distance_scale * plan.object_radius_m
+                                                     : renderer.capture_distance_m();
+  CueRenderSettings settings;
+  settings.samples_per_pixel = options.samples_per_pixel;
+  AtomicDir out(fs::path(workspace) / "relight" / "render");
+  const double flash = renderer.flash_intensity();
+  const render::EnvironmentLight environment =
+      LoadEnvironment(options.environment_map, options.environment_scale * flash, 0.0, workspace);
+  json turntables = json::object();
+  for (const std::string kind : {"point", "env"}) {
+    const fs::path dir = out.path() / ("turntable_" + kind);
+    fs::create_directories(dir);
+    auto timer = record.Time("turntable_" + kind);
+    Progress progress("render turntable (" + kind + ")", options.frames);
+    for (int i = 0; i < options.frames; ++i) {
+      const double azimuth = 2 * M_PI * i / options.frames;
+      const Camera camera =
+          TurntableCamera(intrinsics, plan.object_centre_m, distance, options.elevation_deg * M_PI / 180, azimuth);
+      CueLight light;
+      if (kind == "point") {
+        const Eigen::Vector3d offset(options.point_light_offset_m[0], options.point_light_offset_m[1],
+                                     options.point_light_offset_m[2]);
+        light = CueLight::Point(camera.world_from_cam() * offset, options.point_light_intensity * flash);
+      } else {
+        light.kind = CueLight::Kind::kEnvironment;
+        light.environment = environment;
+      }
+      settings.seed = 7000 + i;
+      char name[16];
+      std::snprintf(name, sizeof(name), "%04d", i);
+      WriteRgba((dir / name).string(), renderer.Render(camera, light, settings));
+      progress.Advance();
+    }
+    progress.Finish();
+    json entry = {{"frames", options.frames}, {"folder", "turntable_" + kind}};
+    if (options.write_mp4) {
+      EncodeMp4(dir, out.path() / ("turntable_" + kind + ".mp4"), options.fps, intrinsics.width, intrinsics.height);
+      entry["mp4"] = "turntable_" + kind + ".mp4";
+    }
+    turntables[kind] = entry;
+  }
+  record.Set("turntables", turntables);
+  record.Set("distance_m", distance);
+  record.Write((out.path() / "render.json").string());
+  out.Commit();
+  spdlog::info("render: turntables written to {}", out.target().string());
+}
+
+void RunRenderViews(const std::string& workspace, const std::string& views_json, const std::string& out_dir,
+                    const RenderStageOptions& options, RunRecord& record) {
+  std::ifstream in(views_json);
+  RELIT_REQUIRE(in, "cannot read ", views_json);
+  const json views = json::parse(in, nullptr, false);
+  RELIT_REQUIRE(!views.is_discarded() && views.contains("views") && views["views"].is_array(), views_json,
+                ": expected a JSON object with a \"views\" array (docs/relight.md)");
+  RelitRenderer renderer(workspace);
+  const std::string base = fs::path(views_json).parent_path().string();
+  fs::create_directories(out_dir);
+  CueRenderSettings settings;
+  settings.samples_per_pixel = options.samples_per_pixel;
+  Progress progress("render views", static_cast<int64_t>(views["views"].size()));
+  auto timer = record.Time("render_views");
+  int index = 0;
+  for (const json& view : views["views"]) {
+    const std::string where = views_json + ": views[" + std::to_string(index) + "]";
+    const std::string name = JsonField(view, "name", where).get<std::string>();
+    RELIT_REQUIRE(name.find('/') == std::string::npos && !name.empty(), where, ": name must be a plain file name");
+    const Intrinsics intrinsics =
+        view.contains("intrinsics") ? IntrinsicsFromJson(view["intrinsics"], where + ".intrinsics") : renderer.camera();
+    const Camera camera(intrinsics, Rigid3FromJson(JsonField(view, "cam_from_world", where), where));
+    const CueLight light = LightFromJson(JsonField(view, "light", where), base, where + ".light");
+    settings.seed = 9000 + index++;
+    WriteRgba((fs::path(out_dir) / name).string(), renderer.Render(camera, light, settings));
+    progress.Advance();
+  }
+  progress.Finish();
+  record.Set("views", index);
+  record.Write((fs::path(out_dir) / "render.json").string());
+}
+
+}  // namespace relit::relight

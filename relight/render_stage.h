@@ -1,0 +1,76 @@
+// `relit-relight render`: new views under new lights from the trained
+// partitions, through the same path as training (cue frame -> models ->
+// barycentric blend of the view direction's partitions in linear HDR).
+//
+// Without --views it renders the configured turntables (RenderStageOptions)
+// into W/relight/render/: turntable_point/NNNN.{exr,png}, turntable_env/...,
+// an MP4 per turntable (composited over grey) and render.json.
+// With --views FILE (JSON, see docs/relight.md) it renders the listed
+// cameras x lights into --out DIR: NAME.exr (linear premultiplied RGBA) and
+// NAME.png (sRGB, straight alpha).
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/camera.h"
+#include "core/image.h"
+#include "core/render/scene.h"
+#include "relight/cue_frames.h"
+#include "relight/model.h"
+#include "relight/partitions.h"
+#include "relight/plan.h"
+#include "relight/stage_options.h"
+
+namespace relit {
+class RunRecord;
+}
+
+namespace relit::relight {
+
+// The trained partitions of a workspace, ready to render.
+class RelitRenderer {
+ public:
+  // Loads W/relight/plan/plan.json, cues.json (camera, flash units), the
+  // proxy mesh and every partition with a finished train.json and a
+  // checkpoint. Throws relit::Error when no partition is trained.
+  RelitRenderer(const std::string& workspace, const std::string& device = "");
+
+  // Premultiplied linear RGBA of `camera` under `light` (light intensities
+  // in the cues' units, see cues.flash_intensity).
+  Image Render(const Camera& camera, const CueLight& light, const CueRenderSettings& settings);
+
+  const Plan& plan() const { return plan_; }
+  const Intrinsics& camera() const { return camera_; }
+  double flash_intensity() const { return flash_intensity_; }
+  double capture_distance_m() const { return capture_distance_m_; }
+  // Partitions weights for a view direction after dropping untrained ones.
+  std::vector<std::pair<int, double>> Weights(const Eigen::Vector3d& direction) const;
+
+ private:
+  Plan plan_;
+  PartitionLayout layout_;
+  Intrinsics camera_;
+  double flash_intensity_ = 1;
+  double capture_distance_m_ = 0;
+  std::unique_ptr<render::Scene> scene_;
+  std::vector<std::optional<DnlModel>> models_;
+};
+
+// A light from JSON: {"type": "point", "position_m": [..], "intensity": x or [r,g,b]},
+// {"type": "directional", "direction_to_light": [..], "irradiance": ..},
+// {"type": "environment", "map": "file.exr" | "procedural:sky" | "procedural:studio",
+//  "scale": 1, "rotation_deg": 0}, {"type": "area", "corner_m", "edge_u_m",
+// "edge_v_m", "radiance"}. Relative map paths are resolved against `base_dir`.
+CueLight LightFromJson(const nlohmann::json& j, const std::string& base_dir, const std::string& where);
+
+// Writes NAME.exr (premultiplied linear RGBA) and NAME.png (sRGB, straight alpha).
+void WriteRgba(const std::string& path_without_extension, const Image& rgba);
+
+void RunRenderStage(const std::string& workspace, const RenderStageOptions& options, RunRecord& record);
+void RunRenderViews(const std::string& workspace, const std::string& views_json, const std::string& out_dir,
+                    const RenderStageOptions& options, RunRecord& record);
+
+}  // namespace relit::relight

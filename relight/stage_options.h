@@ -1,0 +1,80 @@
+// Options of the relight stage's steps that need no LibTorch: radiance cues,
+// the frame split (dataset), and the views `render` produces. The network
+// and optimiser options (ModelOptions, TrainOptions) live in model.h; the
+// whole `relight:` section is assembled in relight_options.h.
+// docs/relight.md explains every key.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace relit {
+class OptionsReader;
+}
+
+namespace relit::relight {
+
+struct CueStageOptions {
+  int samples_per_pixel = 16;   // per cue frame; the 5 bases share every path
+  int max_depth = 4;            // bounces (global illumination); 1 = direct light only
+  uint64_t seed = 1;
+  // Intensity (W/sr) of the point light the cues are rendered with. The
+  // flash's true power is unknown; the networks learn the scale, so any
+  // fixed value works as long as rendering uses the same unit.
+  double flash_intensity = 1.0;
+  int threads = 0;              // 0 = all cores
+
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+struct DatasetOptions {
+  // Every n-th phone V frame (time order) is held out for validation; 0 =
+  // none. Held-out frames never train any partition.
+  int holdout_every = 8;
+  // Frames whose light position calib flagged unreliable are dropped (true)
+  // or kept (false).
+  bool drop_unreliable_lights = true;
+  // Quantile of the training targets' per-pixel maximum taken as the log
+  // encoding's M (the scene's maximum radiance), times max_radiance_margin.
+  double max_radiance_quantile = 0.999;
+  double max_radiance_margin = 1.5;
+
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+// The views `relit-relight render` produces without explicit cameras:
+// turntables around the object (proxy.json's centre), one under a point
+// light that turns with the camera (a flash-like key light, offset up and
+// to the side), one under an environment map.
+struct RenderStageOptions {
+  int frames = 24;                    // turntable frames (one revolution)
+  int width_px = 0;                   // 0 = the training images' size
+  int height_px = 0;
+  double elevation_deg = 30.0;        // camera elevation above the board
+  double distance_scale = 0;          // camera distance / object radius; 0 = as the capture
+  double fps = 12.0;                  // MP4 frame rate
+  // Point light: relative to the camera, in the camera's frame (x right, y
+  // down, z forward), metres; intensity in flash units (1 = the capture's
+  // flash as seen by the cues, see cues.flash_intensity).
+  std::vector<double> point_light_offset_m = {0.1, -0.1, 0.0};
+  double point_light_intensity = 1.0;
+  // Environment map: an EXR/HDR file (equirectangular, +Z up) or
+  // "procedural:sky" (a built-in sky with a sun) when empty.
+  std::string environment_map;
+  double environment_scale = 1.0;
+  int samples_per_pixel = 16;         // cue rendering for new views
+  bool write_mp4 = true;
+
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+}  // namespace relit::relight

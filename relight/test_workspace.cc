@@ -1,0 +1,115 @@
+#include "relight/test_workspace.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <tuple>
+
+#include "core/image.h"
+#include "core/render/path_tracer.h"
+#include "core/workspace.h"
+#include "tools/synth/capture_plan.h"
+#include "tools/synth/scene.h"
+#include "tools/synth/synth_options.h"
+
+namespace relit::relight::testing {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Moves every vertex along the mean normal of all faces around its position
+// (UV seams split vertices; keying by position keeps the surface closed).
+void Inflate(render::TriangleMesh& mesh, double offset_m) {
+  auto key = [](const Eigen::Vector3f& p) {
+    return std::make_tuple(std::lround(p.x() * 1e6), std::lround(p.y() * 1e6), std::lround(p.z() * 1e6));
+  };
+  std::map<std::tuple<long, long, long>, Eigen::Vector3f> normals;
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    const Eigen::Vector3f n = (mesh.positions[t[1]] - mesh.positions[t[0]])
+                                  .cross(mesh.positions[t[2]] - mesh.positions[t[0]]);  // area-weighted
+    for (int k = 0; k < 3; ++k) {
+      auto [it, inserted] = normals.try_emplace(key(mesh.positions[t[k]]), Eigen::Vector3f::Zero());
+      it->second += n;
+    }
+  }
+  for (Eigen::Vector3f& p : mesh.positions) p += static_cast<float>(offset_m) * normals[key(p)].normalized();
+  mesh.normals.clear();
+  mesh.ComputeVertexNormals();
+}
+
+}  // namespace
+
+void MakeTestWorkspace(const std::string& dir, const TestWorkspaceOptions& o) {
+  fs::remove_all(dir);
+  fs::create_directories(fs::path(dir) / "calib" / "undistorted" / "view");
+  fs::create_directories(fs::path(dir) / "reconstruct" / "mattes");
+  synth::SynthOptions options = synth::SynthOptions::ForSize("tiny");
+  options.out = dir;
+  const synth::SynthScene scene = synth::BuildScene("spot", options.board, synth::DefaultAssetsDir());
+  const synth::CapturePlan plan = synth::MakeCapturePlan(options, scene);
+
+  render::TriangleMesh proxy;
+  for (const synth::SynthObject& object : scene.objects) {
+    if (!object.foreground) continue;
+    if (!object.mesh.has_uvs()) throw std::runtime_error("test workspace: the spot mesh has no UVs");
+    proxy = object.mesh;
+    break;
+  }
+  Inflate(proxy, o.proxy_offset_m);
+  render::SaveMesh((fs::path(dir) / "reconstruct" / "proxy.obj").string(), proxy);
+
+  const Intrinsics pinhole = plan.view_intrinsics.WithoutDistortion().Scaled(
+      o.width_px, o.width_px * plan.view_intrinsics.height / plan.view_intrinsics.width);
+  CamerasFile cameras;
+  cameras.board = options.board;
+  cameras.devices["view"] = pinhole;
+  cameras.undistorted_view = pinhole;
+  LightsFile lights;
+  ProxyFile proxy_file;
+  proxy_file.mesh = "reconstruct/proxy.obj";
+  proxy_file.atlas_resolution_px = 256;
+  const Eigen::AlignedBox3f bounds = proxy.Bounds();
+  proxy_file.object_centre_m = bounds.center().cast<double>();
+  proxy_file.object_radius_m = 0.5 * bounds.diagonal().norm();
+
+  render::Scene render_scene;
+  scene.AddTo(&render_scene);
+  const int count = static_cast<int>(plan.view.frames.size());
+  for (int i = 0; i < o.frames; ++i) {
+    const synth::FramePlan& f = plan.view.frames[static_cast<size_t>(i) * count / o.frames];
+    render_scene.ClearLights();
+    render_scene.AddLight(render::PointLight{
+        f.light_position_world.cast<float>(), render::Rgb::Constant(static_cast<float>(options.flash_intensity_w_per_sr))});
+    if (i == 0) render_scene.Commit();
+    char name[32];
+    std::snprintf(name, sizeof(name), "view/%06d", i);
+    CalibratedFrame frame;
+    frame.name = name;
+    frame.device = "view";
+    frame.time_s = f.t_common_s;
+    frame.cam_from_world = f.cam_from_world;
+    frame.image_linear = "calib/undistorted/" + std::string(name) + ".exr";
+    render::RenderOptions ro;
+    ro.samples_per_pixel = o.samples_per_pixel;
+    ro.max_depth = 3;
+    ro.seed = static_cast<uint64_t>(i + 1);
+    ro.alpha_object_ids = scene.ForegroundIds();
+    const render::RenderResult result = render::RenderImage(render_scene, cameras.ViewCamera(frame), ro);
+    WriteImage((fs::path(dir) / frame.image_linear).string(), result.radiance);
+    const std::string matte = "reconstruct/mattes/" + fs::path(name).filename().string() + ".png";
+    WriteImage((fs::path(dir) / matte).string(), result.alpha, PixelStorage::kUint16);
+    cameras.frames.push_back(frame);
+    FrameLight light;
+    light.view_frame = name;
+    light.time_s = f.t_common_s;
+    light.position_m = f.light_position_world;
+    lights.frames.push_back(light);
+    proxy_file.mattes.push_back({name, matte, ""});
+  }
+  WriteCamerasFile((fs::path(dir) / "calib" / "cameras.json").string(), cameras);
+  WriteLightsFile((fs::path(dir) / "calib" / "lights.json").string(), lights);
+  WriteProxyFile((fs::path(dir) / "reconstruct" / "proxy.json").string(), proxy_file);
+}
+
+}  // namespace relit::relight::testing
