@@ -49,33 +49,7 @@ std::string LastLine(const std::string& text) {
   return last;
 }
 
-std::string ExitDescription(int status) {
-  if (status == -1) return "could not be started";
-  if (WIFEXITED(status)) {
-    if (WEXITSTATUS(status) == 127) return "not found (install ffmpeg: tools/install-deps)";
-    return "exited with status " + std::to_string(WEXITSTATUS(status));
-  }
-  if (WIFSIGNALED(status)) return "was killed by signal " + std::to_string(WTERMSIG(status));
-  return "failed";
-}
 
-struct CommandResult {
-  std::string out, log;
-  int status = 0;
-};
-
-CommandResult RunCommand(const std::string& command) {
-  const std::string log = TempLogPath();
-  FILE* pipe = ::popen((command + " 2>" + ShellQuote(log)).c_str(), "r");
-  RELIT_REQUIRE(pipe != nullptr, "cannot start: ", command.substr(0, command.find(' ')));
-  CommandResult result;
-  char buffer[1 << 16];
-  size_t n;
-  while ((n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0) result.out.append(buffer, n);
-  result.status = ::pclose(pipe);
-  result.log = ReadAndRemove(log);
-  return result;
-}
 
 bool IsErrorLine(const std::string& line) {
   return line.find("] [error] ") != std::string::npos ||
@@ -173,7 +147,7 @@ VideoInfo ProbeVideo(const std::string& path, const std::string& role) {
                                          "-show_format " + ShellQuote(path));
   RELIT_REQUIRE(probe.status == 0, "cannot read the ", role, " ", path,
                 ": the file is truncated or not a video (ffprobe ", ExitDescription(probe.status),
-                ": ", LastLine(probe.log), "); copy it from the phone again");
+                ": ", LastLine(probe.err), "); copy it from the phone again");
   const nlohmann::json j = nlohmann::json::parse(probe.out, nullptr, false);
   RELIT_REQUIRE(!j.is_discarded() && j.contains("streams"), "cannot read the ", role, " ", path,
                 ": ffprobe gave no stream list");
@@ -313,10 +287,10 @@ AudioTrack DecodeAudio(const VideoInfo& info, int sample_rate_hz) {
   track.sample_rate_hz = sample_rate_hz;
   std::vector<double> times;
   DecodeIssue issue;
-  ParseShowinfoLog(result.log, info.path, &times, &issue);
+  ParseShowinfoLog(result.err, info.path, &times, &issue);
   RELIT_REQUIRE(result.status == 0 && !times.empty(), "cannot decode the audio of the ", info.role,
                 " ", info.path, ": ffmpeg ", ExitDescription(result.status), ": ",
-                LastLine(result.log));
+                LastLine(result.err));
   if (issue.found) spdlog::warn("{}: audio decoding error: {}", info.path, issue.message);
   track.start_s = times.front();
   track.samples.resize(result.out.size() / sizeof(float));

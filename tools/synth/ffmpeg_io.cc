@@ -31,35 +31,13 @@ std::string ReadTail(const std::string& path, size_t max_chars = 600) {
   return text;
 }
 
-std::string ExitDescription(int status) {
-  if (status == -1) return "could not be started";
-  if (WIFEXITED(status)) {
-    const int code = WEXITSTATUS(status);
-    if (code == 127) return "not found (install ffmpeg: tools/install-deps)";
-    return "exited with status " + std::to_string(code);
-  }
-  if (WIFSIGNALED(status)) return "was killed by signal " + std::to_string(WTERMSIG(status));
-  return "failed";
-}
 
 // Runs a command reading its whole stdout; throws with stderr on failure.
 std::string RunCapture(const std::string& command, const std::string& what) {
-  const std::string log = (std::filesystem::temp_directory_path() /
-                           ("relit-ffmpeg-" + std::to_string(::getpid()) + ".log"))
-                              .string();
-  FILE* pipe = ::popen((command + " 2>" + ShellQuote(log)).c_str(), "r");
-  RELIT_REQUIRE(pipe != nullptr, "cannot start ffmpeg/ffprobe for ", what);
-  std::string output;
-  char buffer[1 << 16];
-  size_t n;
-  while ((n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0) output.append(buffer, n);
-  const int status = ::pclose(pipe);
-  const std::string message = ReadTail(log);
-  std::error_code ignored;
-  std::filesystem::remove(log, ignored);
-  RELIT_REQUIRE(status == 0, what, ": ", command.substr(0, command.find(' ')), " ",
-                ExitDescription(status), ": ", message);
-  return output;
+  const CommandResult result = RunCommand(command);
+  RELIT_REQUIRE(result.ok(), what, ": ", command.substr(0, command.find(' ')), " ", ExitDescription(result.status),
+                ": ", result.err.size() > 600 ? result.err.substr(result.err.size() - 600) : result.err);
+  return result.out;
 }
 
 }  // namespace
