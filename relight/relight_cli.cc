@@ -7,6 +7,7 @@
 #include "core/log.h"
 #include "core/options.h"
 #include "core/run_record.h"
+#include "relight/asset.h"
 #include "relight/cue_stage.h"
 #include "relight/plan.h"
 #include "relight/relight_options.h"
@@ -65,7 +66,7 @@ struct LogFile {
 
 int RunRelight(int argc, char** argv) {
   CLI::App app{"relit-relight: Deferred Neural Lighting on a calibrated, reconstructed workspace. Steps: cues "
-               "-> plan -> train --partition K (each partition independently) -> render. See docs/relight.md."};
+               "-> plan -> train --partition K (each partition independently) -> render, export. See docs/relight.md."};
   app.require_subcommand(1);
   std::string workspace, config, log_level, views, out;
   int partition = -1;
@@ -80,7 +81,9 @@ int RunRelight(int argc, char** argv) {
   CLI::App* plan = app.add_subcommand("plan", "split frames into training/validation and partitions");
   CLI::App* train = app.add_subcommand("train", "train one partition (resumes from its checkpoint)");
   CLI::App* render = app.add_subcommand("render", "render turntables, or the views of a --views JSON file");
-  for (CLI::App* sub : {cues, plan, train, render}) common(sub);
+  CLI::App* export_asset = app.add_subcommand("export", "write the self-contained relightable asset folder");
+  for (CLI::App* sub : {cues, plan, train, render, export_asset}) common(sub);
+  export_asset->add_option("--out", out, "asset folder (default W/relight/export)");
   train->add_option("--partition", partition, "partition index K (see plan.json)")->required();
   train->add_flag("--restart", restart, "discard the checkpoint and start over");
   render->add_option("--views", views, "JSON file of cameras and lights to render (docs/relight.md)")
@@ -118,11 +121,15 @@ int RunRelight(int argc, char** argv) {
   } else if (render->parsed()) {
     if (!views.empty()) {
       RELIT_REQUIRE(!out.empty(), "render --views needs --out DIR");
-      RunRenderViews(workspace, views, out, options.render, record);
+      RunRenderViews(DescribeWorkspace(workspace), views, out, options.render, record);
     } else {
       LogFile log(relight_dir / "logs" / "render.log", level);
       RunRenderStage(workspace, options.render, record);
     }
+  }
+  if (export_asset->parsed()) {
+    LogFile log(relight_dir / "logs" / "export.log", level);
+    ExportAsset(workspace, out.empty() ? (relight_dir / "export").string() : out, record);
   }
   return 0;
 }

@@ -11,6 +11,8 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "core/run_record.h"
+#include "core/json_file.h"
+#include "relight/asset.h"
 #include "relight/checkpoint.h"
 #include "relight/cue_frames.h"
 #include "relight/cue_stage.h"
@@ -204,6 +206,46 @@ TEST_F(RelightStageTest, RenderWritesTurntablesFromTheTrainedPartition) {
     EXPECT_GT(alpha, 200.0) << kind;  // the object is in view
     EXPECT_TRUE(fs::exists(dir / "0002.png"));
     EXPECT_GT(fs::file_size(fs::path(dir_) / "relight/render" / ("turntable_" + kind + ".mp4")), 1000u);
+  }
+}
+
+// An exported asset renders exactly like the workspace it came from.
+TEST_F(RelightStageTest, ExportedAssetRendersBitIdenticallyToTheWorkspace) {
+  RunRecord record("test");
+  RunTrainStage(dir_, 0, SmallModel(), SmallTraining(10), true, record);
+  const std::string asset_dir = dir_ + "/asset";
+  ExportAsset(dir_, asset_dir, record);
+  ASSERT_TRUE(fs::exists(asset_dir + "/manifest.json"));
+  ASSERT_TRUE(fs::exists(asset_dir + "/proxy.obj"));
+  ASSERT_FALSE(fs::exists(asset_dir + "/partitions/00/optimizer.pt"));
+  EXPECT_EQ(ReadImage(asset_dir + "/textures/00.exr").channels(), 5 * SmallModel().channels_per_basis);
+
+  const AssetDescription from_workspace = DescribeWorkspace(dir_);
+  const Camera camera(from_workspace.camera,
+                      LookAt(from_workspace.object_centre_m + Eigen::Vector3d(0.25, -0.2, 0.2),
+                             from_workspace.object_centre_m, Eigen::Vector3d::UnitZ()));
+  const nlohmann::json views = {
+      {"views",
+       {{{"name", "key"}, {"cam_from_world", ToJson(camera.cam_from_world())},
+         {"light", {{"type", "point"}, {"position_m", {0.3, -0.1, 0.4}}, {"intensity", 1.0}}}},
+        {{"name", "sun"}, {"cam_from_world", ToJson(camera.cam_from_world())},
+         {"light", {{"type", "directional"}, {"direction_to_light", {0.2, -0.5, 1.0}}, {"irradiance", {3, 3, 2.5}}}}}}}};
+  const std::string views_path = dir_ + "/views.json";
+  std::ofstream(views_path) << views.dump(2);
+  RenderStageOptions options;
+  options.samples_per_pixel = 4;
+  RunRenderViews(from_workspace, views_path, dir_ + "/from_workspace", options, record);
+  RunRenderViews(ReadAsset(asset_dir), views_path, dir_ + "/from_asset", options, record);
+  for (const std::string name : {"key", "sun"}) {
+    const Image a = ReadImage(dir_ + "/from_workspace/" + name + ".exr");
+    const Image b = ReadImage(dir_ + "/from_asset/" + name + ".exr");
+    ASSERT_EQ(a.data().size(), b.data().size());
+    EXPECT_TRUE(a.data() == b.data()) << name;
+    double alpha = 0;
+    for (int y = 0; y < a.height(); ++y) {
+      for (int x = 0; x < a.width(); ++x) alpha += a.at(x, y, 3);
+    }
+    EXPECT_GT(alpha, 100.0) << name;
   }
 }
 

@@ -4,12 +4,14 @@
 #include <filesystem>
 #include <fstream>
 
+#include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
 #include "core/atomic_output.h"
 #include "core/color.h"
 #include "core/error.h"
 #include "core/json_file.h"
+#include "core/log.h"
 #include "core/progress.h"
 #include "core/render/envmaps.h"
 #include "core/run_record.h"
@@ -25,30 +27,22 @@ namespace relit::relight {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-RelitRenderer::RelitRenderer(const std::string& workspace, const std::string& device)
-    : plan_(ReadPlan((fs::path(workspace) / "relight" / "plan" / "plan.json").string())),
-      layout_(plan_.Layout()) {
-  const fs::path root(workspace);
-  const CuesFile cues = ReadCuesFile((root / "relight" / "cues" / "cues.json").string());
-  camera_ = cues.camera;
-  flash_intensity_ = cues.flash_intensity;
-  double distance = 0;
-  for (const CueFrameRecord& f : cues.frames) {
-    distance += (f.cam_from_world.Inverse().translation - plan_.object_centre_m).norm();
-  }
-  capture_distance_m_ = distance / std::max<size_t>(1, cues.frames.size());
-  scene_ = LoadProxyScene((root / cues.mesh).string());
-  models_.resize(plan_.partitions.size());
+RelitRenderer::RelitRenderer(const AssetDescription& asset, const std::string& device)
+    : asset_(asset), layout_(PartitionLayout::FromOptions(asset.layout_options)) {
+  RELIT_REQUIRE(static_cast<int>(asset_.partition_models.size()) == layout_.partition_count(),
+                "asset: ", asset_.partition_models.size(), " partitions listed, the layout has ",
+                layout_.partition_count());
+  scene_ = LoadProxyScene(asset_.mesh);
+  models_.resize(asset_.partition_models.size());
   int loaded = 0;
-  for (size_t p = 0; p < plan_.partitions.size(); ++p) {
-    const fs::path dir = root / "relight" / "partitions" / PartitionDirName(static_cast<int>(p));
-    if (!fs::exists(dir / "train.json") || !fs::exists(dir / "checkpoint" / "checkpoint.json")) continue;
-    models_[p] = LoadModel(dir / "checkpoint", device);
+  for (size_t p = 0; p < asset_.partition_models.size(); ++p) {
+    if (asset_.partition_models[p].empty()) continue;
+    models_[p] = LoadModel(asset_.partition_models[p], device);
     ++loaded;
   }
-  RELIT_REQUIRE(loaded > 0, "no trained partition in ", (root / "relight" / "partitions").string(),
-                ": run `relit-relight train --partition K` for the plan's partitions first");
-  spdlog::info("render: {} of {} partitions trained", loaded, plan_.partitions.size());
+  RELIT_REQUIRE(loaded > 0, "no trained partition to render with: run `relit-relight train --partition K` "
+                "for the plan's partitions first");
+  spdlog::info("render: {} of {} partitions trained", loaded, asset_.partition_models.size());
 }
 
 std::vector<std::pair<int, double>> RelitRenderer::Weights(const Eigen::Vector3d& direction) const {
@@ -78,11 +72,13 @@ std::vector<std::pair<int, double>> RelitRenderer::Weights(const Eigen::Vector3d
   return weights;
 }
 
-Image RelitRenderer::Render(const Camera& camera, const CueLight& light, const CueRenderSettings& settings) {
+Image RelitRenderer::Render(const Camera& camera, const CueLight& light, const CueRenderSettings& settings_in) {
+  CueRenderSettings settings = settings_in;
+  settings.max_depth = asset_.cue_max_depth;  // new views see the cues the networks were trained on
   const Image cue_frame = RenderCueFrame(*scene_, camera, light, settings);
   const Batch batch = CueFrameToBatch(cue_frame);
   Image result(cue_frame.width(), cue_frame.height(), {"R", "G", "B", "A"});
-  for (const auto& [partition, weight] : Weights(camera.Center() - plan_.object_centre_m)) {
+  for (const auto& [partition, weight] : Weights(camera.Center() - asset_.object_centre_m)) {
     const Image rgba = RenderFrame(*models_[partition], batch);
     for (size_t i = 0; i < result.data().size(); ++i) result.data()[i] += static_cast<float>(weight) * rgba.data()[i];
   }
@@ -182,17 +178,16 @@ void WriteRgba(const std::string& path_without_extension, const Image& rgba) {
 
 void RunRenderStage(const std::string& workspace, const RenderStageOptions& options, RunRecord& record) {
   options.Check();
-  RelitRenderer renderer(workspace);
-  const Plan& plan = renderer.plan();
-  const Intrinsics intrinsics = options.width_px > 0
-                                    ? renderer.camera().Scaled(options.width_px, options.height_px)
-                                    : renderer.camera();
-  const double distance = options.distance_scale > 0 ? options.distance_scale * plan.object_radius_m
-                                                     : renderer.capture_distance_m();
+  const AssetDescription asset = DescribeWorkspace(workspace);
+  RelitRenderer renderer(asset);
+  const Intrinsics intrinsics =
+      options.width_px > 0 ? asset.camera.Scaled(options.width_px, options.height_px) : asset.camera;
+  const double distance =
+      options.distance_scale > 0 ? options.distance_scale * asset.object_radius_m : asset.capture_distance_m;
   CueRenderSettings settings;
   settings.samples_per_pixel = options.samples_per_pixel;
   AtomicDir out(fs::path(workspace) / "relight" / "render");
-  const double flash = renderer.flash_intensity();
+  const double flash = asset.flash_intensity;
   const render::EnvironmentLight environment =
       LoadEnvironment(options.environment_map, options.environment_scale * flash, 0.0, workspace);
   json turntables = json::object();
@@ -204,7 +199,7 @@ void RunRenderStage(const std::string& workspace, const RenderStageOptions& opti
     for (int i = 0; i < options.frames; ++i) {
       const double azimuth = 2 * M_PI * i / options.frames;
       const Camera camera =
-          TurntableCamera(intrinsics, plan.object_centre_m, distance, options.elevation_deg * M_PI / 180, azimuth);
+          TurntableCamera(intrinsics, asset.object_centre_m, distance, options.elevation_deg * M_PI / 180, azimuth);
       CueLight light;
       if (kind == "point") {
         const Eigen::Vector3d offset(options.point_light_offset_m[0], options.point_light_offset_m[1],
@@ -235,14 +230,14 @@ void RunRenderStage(const std::string& workspace, const RenderStageOptions& opti
   spdlog::info("render: turntables written to {}", out.target().string());
 }
 
-void RunRenderViews(const std::string& workspace, const std::string& views_json, const std::string& out_dir,
-                    const RenderStageOptions& options, RunRecord& record) {
+void RunRenderViews(const AssetDescription& asset, const std::string& views_json, const std::string& out_dir,
+                    const RenderStageOptions& options, RunRecord& record, const std::string& device) {
   std::ifstream in(views_json);
   RELIT_REQUIRE(in, "cannot read ", views_json);
   const json views = json::parse(in, nullptr, false);
   RELIT_REQUIRE(!views.is_discarded() && views.contains("views") && views["views"].is_array(), views_json,
                 ": expected a JSON object with a \"views\" array (docs/relight.md)");
-  RelitRenderer renderer(workspace);
+  RelitRenderer renderer(asset, device);
   const std::string base = fs::path(views_json).parent_path().string();
   fs::create_directories(out_dir);
   CueRenderSettings settings;
@@ -255,7 +250,7 @@ void RunRenderViews(const std::string& workspace, const std::string& views_json,
     const std::string name = JsonField(view, "name", where).get<std::string>();
     RELIT_REQUIRE(name.find('/') == std::string::npos && !name.empty(), where, ": name must be a plain file name");
     const Intrinsics intrinsics =
-        view.contains("intrinsics") ? IntrinsicsFromJson(view["intrinsics"], where + ".intrinsics") : renderer.camera();
+        view.contains("intrinsics") ? IntrinsicsFromJson(view["intrinsics"], where + ".intrinsics") : asset.camera;
     const Camera camera(intrinsics, Rigid3FromJson(JsonField(view, "cam_from_world", where), where));
     const CueLight light = LightFromJson(JsonField(view, "light", where), base, where + ".light");
     settings.seed = 9000 + index++;
@@ -265,6 +260,34 @@ void RunRenderViews(const std::string& workspace, const std::string& views_json,
   progress.Finish();
   record.Set("views", index);
   record.Write((fs::path(out_dir) / "render.json").string());
+}
+
+int RunRender(int argc, char** argv) {
+  CLI::App app{"relit-render: render an exported relit asset (relit-relight export) for any cameras and "
+               "lights, without the workspace. See docs/relight.md for the views file."};
+  std::string asset_dir, views, out, device, log_level = "info";
+  int samples = 16;
+  app.add_option("--asset", asset_dir, "asset folder (manifest.json)")->required()->check(CLI::ExistingDirectory);
+  app.add_option("--views", views, "JSON file of cameras and lights")->required()->check(CLI::ExistingFile);
+  app.add_option("--out", out, "output folder")->required();
+  app.add_option("--samples-per-pixel", samples, "cue paths per pixel (default 16)");
+  app.add_option("--device", device, "cpu | cuda | auto (default cpu)");
+  app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  SetVerbosity(ParseLogLevel(log_level));
+  RenderStageOptions options;
+  options.samples_per_pixel = samples;
+  options.Check();
+  AssetDescription asset = ReadAsset(asset_dir);
+  RunRecord record("relit-render");
+  record.SetCommandLine(argc, argv);
+  record.SetOptions({{"asset", asset_dir}, {"views", views}, {"samples_per_pixel", samples}, {"device", device}});
+  RunRenderViews(asset, views, out, options, record, device);
+  return 0;
 }
 
 }  // namespace relit::relight

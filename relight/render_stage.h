@@ -18,10 +18,10 @@
 #include "core/camera.h"
 #include "core/image.h"
 #include "core/render/scene.h"
+#include "relight/asset.h"
 #include "relight/cue_frames.h"
 #include "relight/model.h"
 #include "relight/partitions.h"
-#include "relight/plan.h"
 #include "relight/stage_options.h"
 
 namespace relit {
@@ -30,31 +30,24 @@ class RunRecord;
 
 namespace relit::relight {
 
-// The trained partitions of a workspace, ready to render.
+// The trained partitions of a workspace or an exported asset, ready to render.
 class RelitRenderer {
  public:
-  // Loads W/relight/plan/plan.json, cues.json (camera, flash units), the
-  // proxy mesh and every partition with a finished train.json and a
-  // checkpoint. Throws relit::Error when no partition is trained.
-  RelitRenderer(const std::string& workspace, const std::string& device = "");
+  // Loads the proxy mesh and every trained partition of `asset`
+  // (DescribeWorkspace or ReadAsset). Throws relit::Error when none is trained.
+  explicit RelitRenderer(const AssetDescription& asset, const std::string& device = "");
 
   // Premultiplied linear RGBA of `camera` under `light` (light intensities
   // in the cues' units, see cues.flash_intensity).
   Image Render(const Camera& camera, const CueLight& light, const CueRenderSettings& settings);
 
-  const Plan& plan() const { return plan_; }
-  const Intrinsics& camera() const { return camera_; }
-  double flash_intensity() const { return flash_intensity_; }
-  double capture_distance_m() const { return capture_distance_m_; }
+  const AssetDescription& asset() const { return asset_; }
   // Partitions weights for a view direction after dropping untrained ones.
   std::vector<std::pair<int, double>> Weights(const Eigen::Vector3d& direction) const;
 
  private:
-  Plan plan_;
+  AssetDescription asset_;
   PartitionLayout layout_;
-  Intrinsics camera_;
-  double flash_intensity_ = 1;
-  double capture_distance_m_ = 0;
   std::unique_ptr<render::Scene> scene_;
   std::vector<std::optional<DnlModel>> models_;
 };
@@ -70,7 +63,12 @@ CueLight LightFromJson(const nlohmann::json& j, const std::string& base_dir, con
 void WriteRgba(const std::string& path_without_extension, const Image& rgba);
 
 void RunRenderStage(const std::string& workspace, const RenderStageOptions& options, RunRecord& record);
-void RunRenderViews(const std::string& workspace, const std::string& views_json, const std::string& out_dir,
-                    const RenderStageOptions& options, RunRecord& record);
+// Renders the views of `views_json` with `asset` into `out_dir`.
+void RunRenderViews(const AssetDescription& asset, const std::string& views_json, const std::string& out_dir,
+                    const RenderStageOptions& options, RunRecord& record, const std::string& device = "");
+
+// `relit-render --asset DIR --views FILE --out DIR`: renders from an exported
+// asset alone (no workspace).
+int RunRender(int argc, char** argv);
 
 }  // namespace relit::relight

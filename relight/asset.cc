@@ -1,0 +1,147 @@
+#include "relight/asset.h"
+
+#include <filesystem>
+
+#include <spdlog/spdlog.h>
+
+#include "core/atomic_output.h"
+#include "core/error.h"
+#include "core/image.h"
+#include "core/json_file.h"
+#include "core/run_record.h"
+#include "relight/checkpoint.h"
+#include "relight/cue_stage.h"
+#include "relight/dataset.h"
+#include "relight/plan.h"
+#include "relight/train_stage.h"
+
+namespace relit::relight {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+AssetDescription DescribeWorkspace(const std::string& workspace) {
+  const fs::path root = fs::absolute(workspace);
+  const Plan plan = ReadPlan((root / "relight" / "plan" / "plan.json").string());
+  const std::string cues_path = (root / "relight" / "cues" / "cues.json").string();
+  RELIT_REQUIRE(fs::exists(cues_path), cues_path, " is missing: run `relit-relight cues` first");
+  const CuesFile cues = ReadCuesFile(cues_path);
+  AssetDescription asset;
+  asset.layout_options = plan.layout_options;
+  asset.object_centre_m = plan.object_centre_m;
+  asset.object_radius_m = plan.object_radius_m;
+  asset.camera = cues.camera;
+  asset.flash_intensity = cues.flash_intensity;
+  asset.cue_max_depth = cues.max_depth;
+  asset.mesh = (root / cues.mesh).string();
+  double distance = 0;
+  for (const CueFrameRecord& f : cues.frames) {
+    distance += (f.cam_from_world.Inverse().translation - plan.object_centre_m).norm();
+  }
+  asset.capture_distance_m = distance / std::max<size_t>(1, cues.frames.size());
+  for (size_t p = 0; p < plan.partitions.size(); ++p) {
+    const fs::path dir = root / "relight" / "partitions" / PartitionDirName(static_cast<int>(p));
+    const bool trained = fs::exists(dir / "train.json") && fs::exists(dir / "checkpoint" / "checkpoint.json");
+    asset.partition_models.push_back(trained ? (dir / "checkpoint").string() : "");
+  }
+  return asset;
+}
+
+AssetDescription ReadAsset(const std::string& dir) {
+  const fs::path root = fs::absolute(dir);
+  const std::string path = (root / "manifest.json").string();
+  RELIT_REQUIRE(fs::exists(path), path, " is missing: not a relit asset folder (make one with relit-relight export)");
+  const json j = ReadJsonFile(path, AssetDescription::kKind, AssetDescription::kVersion);
+  AssetDescription asset;
+  const json& layout = JsonField(j, "layout_options", path);
+  asset.layout_options.layout = JsonField(layout, "layout", path).get<std::string>();
+  asset.layout_options.elevation_deg = layout.value("elevation_deg", std::vector<double>{});
+  asset.layout_options.azimuth_deg = layout.value("azimuth_deg", std::vector<double>{});
+  asset.object_centre_m = Vector3FromJson(JsonField(j, "object_centre_m", path), path);
+  asset.object_radius_m = JsonNumber(j, "object_radius_m", path);
+  asset.camera = IntrinsicsFromJson(JsonField(j, "camera", path), path + ": camera");
+  asset.capture_distance_m = JsonNumber(j, "capture_distance_m", path);
+  const json& cues = JsonField(j, "cues", path);
+  asset.flash_intensity = JsonNumber(cues, "light_unit_w_per_sr", path);
+  asset.cue_max_depth = JsonInt(cues, "max_depth", path);
+  asset.mesh = (root / JsonField(j, "mesh", path).get<std::string>()).string();
+  for (const json& p : JsonField(j, "partitions", path)) {
+    const std::string model = p.value("model", std::string());
+    asset.partition_models.push_back(model.empty() ? "" : (root / model).string());
+  }
+  return asset;
+}
+
+void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRecord& record) {
+  const AssetDescription asset = DescribeWorkspace(workspace);
+  const Plan plan = ReadPlan((fs::path(workspace) / "relight" / "plan" / "plan.json").string());
+  AtomicDir out(out_dir);
+  const fs::path root = out.path();
+  fs::copy_file(asset.mesh, root / "proxy.obj");
+  json partitions = json::array();
+  int trained = 0;
+  for (size_t p = 0; p < asset.partition_models.size(); ++p) {
+    const std::string name = PartitionDirName(static_cast<int>(p));
+    json entry = {{"index", p}, {"direction", ToJson(plan.partitions[p].direction)}};
+    if (!asset.partition_models[p].empty()) {
+      const fs::path source = asset.partition_models[p];
+      const fs::path target = root / "partitions" / name;
+      fs::create_directories(target);
+      // Only what rendering needs: no optimiser state.
+      for (const char* file : {"checkpoint.json", "model.pt"}) fs::copy_file(source / file, target / file);
+      const CheckpointInfo info = ReadCheckpointInfo(source);
+      DnlModel model = LoadModel(source, "cpu");
+      fs::create_directories(root / "textures");
+      std::vector<std::string> channels;
+      for (int c = 0; c < model->options().channels_per_basis * 5; ++c) {
+        channels.push_back("basis" + std::to_string(c / model->options().channels_per_basis) + ".ch" +
+                           std::to_string(c % model->options().channels_per_basis));
+      }
+      WriteImage((root / "textures" / (name + ".exr")).string(),
+                 TensorToImage(model->texture()->texels().detach(), channels), PixelStorage::kFloat);
+      entry["model"] = "partitions/" + name;
+      entry["texture"] = "textures/" + name + ".exr";
+      entry["steps"] = info.step;
+      entry["model_options"] = info.model_options.ToJson();
+      entry["log_encoding"] = {{"formula", "y = 2 (ln(x + 1/e) + 1) / (ln(M + 1/e) + 1) - 1"},
+                               {"M", info.model_options.max_radiance}};
+      ++trained;
+    }
+    partitions.push_back(entry);
+  }
+  RELIT_REQUIRE(trained > 0, "export: no trained partition in ", workspace, "/relight/partitions: train first");
+  WriteJsonFile((root / "manifest.json").string(), AssetDescription::kKind, AssetDescription::kVersion,
+                {{"units", "metres"},
+                 {"frame", "board frame: origin and x axis from the ChArUco board, +Z up (docs/conventions.md)"},
+                 {"layout_options", asset.layout_options.ToJson()},
+                 {"layout", PartitionLayout::FromOptions(asset.layout_options).ToJson()},
+                 {"object_centre_m", ToJson(asset.object_centre_m)},
+                 {"object_radius_m", asset.object_radius_m},
+                 {"camera", ToJson(asset.camera)},
+                 {"capture_distance_m", asset.capture_distance_m},
+                 {"cues",
+                  {{"basis", {"lambert", "ggx_alpha_0.02", "ggx_alpha_0.05", "ggx_alpha_0.13", "ggx_alpha_0.34"}},
+                   {"roughness", "GGX alpha (no squaring), specular F0 = 1"},
+                   {"light_unit_w_per_sr", asset.flash_intensity},
+                   {"max_depth", asset.cue_max_depth}}},
+                 {"mesh", "proxy.obj"},
+                 {"partitions", partitions},
+                 {"relit_version", RelitVersion()}});
+  AtomicWriteFile(root / "README.md",
+                  "# relit relightable asset\n\n"
+                  "Deferred Neural Lighting asset exported by relit " + std::string(RelitVersion()) + ".\n\n"
+                  "- `manifest.json`: layout of the view partitions, object centre, training camera, the radiance-cue\n"
+                  "  settings (5 basis materials, light unit, bounces) and, per partition, its network options and\n"
+                  "  the log-encoding constant M.\n"
+                  "- `proxy.obj`: the proxy mesh with its UV atlas (metres, board frame, +Z up).\n"
+                  "- `partitions/KK/`: neural texture and networks (LibTorch `model.pt` + `checkpoint.json`).\n"
+                  "- `textures/KK.exr`: level 0 of each neural texture, for inspection.\n\n"
+                  "Render it with `relit-render --asset THIS_FOLDER --views views.json --out DIR` (docs/relight.md\n"
+                  "describes the views file: any pinhole camera, point / directional / environment / area light).\n");
+  record.Set("partitions_exported", trained);
+  record.Write((root / "export.json").string());
+  out.Commit();
+  spdlog::info("export: {} partitions -> {}", trained, out.target().string());
+}
+
+}  // namespace relit::relight

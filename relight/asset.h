@@ -1,0 +1,52 @@
+// The relightable asset: everything `render` needs, from a workspace or from
+// an exported, self-contained folder (`relit-relight export`).
+//
+// Asset folder (manifest schema relit.asset/1, docs/formats.md):
+//   manifest.json          layout, object centre/radius, training camera,
+//                          cue settings (basis, light unit, bounces), per
+//                          partition: model folder, network options, M
+//   proxy.obj              the proxy mesh with its UV atlas (world frame, metres)
+//   partitions/KK/         checkpoint.json + model.pt (texture + networks)
+//   textures/KK.exr        neural texture level 0 (5 C channels, for inspection)
+//   README.md              what the folder is and how to render it
+// Rendering from the folder and from the workspace run the same code and give
+// bit-identical images (relight_stage_test).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/camera.h"
+#include "relight/partitions.h"
+
+namespace relit {
+class RunRecord;
+}
+
+namespace relit::relight {
+
+struct AssetDescription {
+  static constexpr const char* kKind = "asset";
+  static constexpr int kVersion = 1;
+  PartitionLayoutOptions layout_options;
+  Eigen::Vector3d object_centre_m = Eigen::Vector3d::Zero();
+  double object_radius_m = 0;
+  Intrinsics camera;                 // the training (undistorted) camera
+  double capture_distance_m = 0;     // mean camera distance of the capture
+  double flash_intensity = 1;        // W/sr of the cue light = the unit of light intensities
+  int cue_max_depth = 4;             // bounces the cues were rendered with
+  std::string mesh;                  // absolute path of the proxy mesh
+  std::vector<std::string> partition_models;  // absolute checkpoint folders; "" = not trained
+};
+
+// From W/relight/{plan,cues,partitions}. Throws when the plan or cues are missing.
+AssetDescription DescribeWorkspace(const std::string& workspace);
+// From an exported folder. Throws relit::Error naming the file.
+AssetDescription ReadAsset(const std::string& dir);
+
+// Writes the asset folder `out_dir` (atomically) from a workspace.
+void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRecord& record);
+
+}  // namespace relit::relight
