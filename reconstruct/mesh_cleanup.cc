@@ -213,7 +213,12 @@ render::TriangleMesh CleanupMesh(const render::TriangleMesh& input, const Cleanu
   PMP::remove_isolated_vertices(mesh);
   mesh.collect_garbage();
   ClampAbovePlane(mesh, options.crop_margin_m);
-  if (CGAL::is_closed(mesh)) PMP::orient(mesh, CGAL::parameters::outward_orientation(true));
+  if (CGAL::is_closed(mesh)) {
+    PMP::orient(mesh, CGAL::parameters::outward_orientation(true));
+    // orient() judges by the extreme vertex, which a fold (e.g. in an
+    // advancing-front surface) can mislead; the signed volume cannot be.
+    if (PMP::volume(mesh) < 0) PMP::reverse_face_orientations(mesh);
+  }
   render::TriangleMesh out = FromMesh(mesh);
   report->output_faces = static_cast<int>(out.triangles.size());
   spdlog::info("cleanup: {} -> {} faces after crop, {} of {} components kept, {} holes filled, {} faces",

@@ -23,6 +23,7 @@
 #include "core/workspace.h"
 #include "reconstruct/closed_form_matting.h"
 #include "reconstruct/mesh_cleanup.h"
+#include "reconstruct/proxy_source.h"
 #include "reconstruct/trimap.h"
 #include "reconstruct/uv_atlas.h"
 
@@ -39,33 +40,6 @@ struct LogFileScope {
   spdlog::level::level_enum level;
   ~LogFileScope() { InitLogging("", level); }
 };
-
-// Where the phones' optical axes converge (least squares) and a crop radius:
-// scale x a quarter of the median field-of-view width at that point.
-CropRegion CropFromCameras(const CamerasFile& cameras, const std::vector<const CalibratedFrame*>& frames,
-                           const CleanupOptions& options) {
-  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d b = Eigen::Vector3d::Zero();
-  for (const CalibratedFrame* f : frames) {
-    const Camera camera = cameras.ViewCamera(*f);
-    const Eigen::Vector3d d = camera.ViewDirection();
-    const Eigen::Matrix3d p = Eigen::Matrix3d::Identity() - d * d.transpose();
-    a += p;
-    b += p * camera.Center();
-  }
-  CropRegion crop;
-  const Eigen::Vector3d centre = a.ldlt().solve(b);
-  crop.centre_xy = centre.head<2>();
-  std::vector<double> widths;
-  for (const CalibratedFrame* f : frames) {
-    const Camera camera = cameras.ViewCamera(*f);
-    widths.push_back((camera.Center() - centre).norm() * camera.intrinsics().width / camera.intrinsics().fx);
-  }
-  std::nth_element(widths.begin(), widths.begin() + widths.size() / 2, widths.end());
-  crop.radius_m = options.crop_radius_m > 0 ? options.crop_radius_m
-                                            : std::max(0.1, options.crop_radius_scale * 0.25 * widths[widths.size() / 2]);
-  return crop;
-}
 
 std::string FileStem(const std::string& frame_name) {
   std::string stem = frame_name;
@@ -88,10 +62,6 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
   }
   RELIT_REQUIRE(!frames.empty(), "reconstruct: ", cameras_path, " has no phone V frame with an undistorted image");
 
-  RELIT_REQUIRE(!options.mesh.empty(),
-                "reconstruct: no proxy mesh source: the dense CPU path (StereoSGBM + Poisson) is not "
-                "implemented yet; pass a mesh in the board frame with --mesh FILE (or mesh: in the YAML)");
-
   AtomicDir out(workspace / "reconstruct");
   const fs::path root = out.path();
   LogFileScope log_scope{level};
@@ -106,11 +76,18 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
   const CropRegion crop = CropFromCameras(cameras, frames, options.cleanup);
   spdlog::info("crop: centre ({:.3f}, {:.3f}) m, radius {:.3f} m, above z = {:.4f} m", crop.centre_xy.x(),
                crop.centre_xy.y(), crop.radius_m, options.cleanup.crop_margin_m);
-  record.AddInput("mesh", options.mesh);
   render::TriangleMesh input;
-  {
+  if (options.proxy.method == "mesh") {
+    record.AddInput("mesh", options.mesh);
     auto timer = record.Time("load_mesh");
     input = render::LoadMesh(options.mesh);
+    report["proxy"] = {{"method", "mesh"}, {"mesh", options.mesh}};
+  } else {
+    nlohmann::json proxy_report;
+    input = BuildProxyFromImages(workspace, cameras, crop, options.proxy, root / "proxy_points", &record,
+                                 &proxy_report);
+    report["proxy"] = proxy_report;
+    record.Set("proxy_method", proxy_report["method"]);
   }
   CleanupReport cleanup_report;
   render::TriangleMesh proxy;
@@ -212,7 +189,7 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
                                  "reconstruct/trimaps/" + stem + ".png"});
   }
   RELIT_REQUIRE(!proxy_file.mattes.empty(), "reconstruct: the proxy is not visible in any phone V frame; "
-                "is the mesh in the board frame?");
+                "is the mesh in the board frame (metres, +Z up)?");
   WriteProxyFile((root / "proxy.json").string(), proxy_file);
 
   report["cleanup"] = cleanup_report.ToJson();
@@ -248,7 +225,10 @@ int RunReconstruct(int argc, char** argv) {
   app.add_option("--workspace", workspace, "workspace folder W (reads W/calib, writes W/reconstruct)");
   app.add_option("--config", config, "YAML file with reconstruct options (unknown keys are errors)")
       ->check(CLI::ExistingFile);
-  app.add_option("--mesh", mesh, "user-supplied proxy mesh (OBJ/PLY, board frame, metres)")->check(CLI::ExistingFile);
+  app.add_option("--mesh", mesh, "user-supplied proxy mesh (OBJ/PLY, board frame, metres); sets proxy.method: mesh")
+      ->check(CLI::ExistingFile);
+  std::string method;
+  app.add_option("--proxy-method", method, "dense (default) | sparse | mesh (see docs/reconstruct.md)");
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
   try {
     app.parse(argc, argv);
@@ -261,7 +241,11 @@ int RunReconstruct(int argc, char** argv) {
     options.Read(reader);
   }
   if (!workspace.empty()) options.workspace = workspace;
-  if (!mesh.empty()) options.mesh = mesh;
+  if (!mesh.empty()) {
+    options.mesh = mesh;
+    options.proxy.method = "mesh";
+  }
+  if (!method.empty()) options.proxy.method = method;
   if (!log_level.empty()) options.log_level = log_level;
   SetVerbosity(ParseLogLevel(options.log_level));
   options.Check();

@@ -1,6 +1,7 @@
 // relit-reconstruct: the reconstruct stage. Reads W/calib/cameras.json (the
-// undistorted phone V frames and their cameras), builds the proxy mesh (a
-// user-supplied mesh for now, see docs/reconstruct.md), cleans it (crop above
+// undistorted phone V frames and their cameras), builds the proxy mesh (dense
+// stereo + Poisson, the sparse fallback, or a user-supplied mesh; see
+// docs/reconstruct.md), cleans it (crop above
 // the board, floaters, holes, manifold, outward, remeshing), gives it a UV
 // atlas, projects it into every phone V frame for a trimap and solves a
 // closed-form alpha matte per frame. Writes W/reconstruct/: proxy.obj (+ .mtl),
@@ -29,7 +30,7 @@ struct ReconstructSummary {
 ReconstructSummary RunReconstructImpl(const ReconstructOptions& options);
 
 // Command line: --workspace W [--config reconstruct.yaml] [--mesh user.obj]
-// [--log-level L], then RunReconstructImpl.
+// [--proxy-method dense|sparse|mesh] [--log-level L], then RunReconstructImpl.
 int RunReconstruct(int argc, char** argv);
 
 }  // namespace relit::reconstruct

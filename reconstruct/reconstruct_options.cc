@@ -4,6 +4,79 @@
 
 namespace relit::reconstruct {
 
+void ProxyOptions::Read(OptionsReader& r) {
+  r.Read("method", &method);
+  r.ReadRange("max_frames", &max_frames, 0, 1000000);
+  r.ReadRange("neighbours", &neighbours, 1, 8);
+  r.ReadRange("min_baseline_deg", &min_baseline_deg, 0.1, 90.0);
+  r.ReadRange("target_baseline_deg", &target_baseline_deg, 0.1, 90.0);
+  r.ReadRange("max_baseline_deg", &max_baseline_deg, 0.1, 90.0);
+  r.ReadRange("block_size_px", &block_size_px, 1, 31);
+  r.ReadRange("uniqueness_ratio", &uniqueness_ratio, 0, 100);
+  r.ReadRange("speckle_window_px", &speckle_window_px, 0, 10000);
+  r.ReadRange("max_left_right_difference_px", &max_left_right_difference_px, 0.0, 100.0);
+  r.ReadRange("min_consistent_views", &min_consistent_views, 0, 100);
+  r.ReadRange("depth_tolerance", &depth_tolerance, 1e-5, 1.0);
+  r.ReadRange("min_height_m", &min_height_m, 0.0, 1.0);
+  r.ReadRange("min_cluster_fraction", &min_cluster_fraction, 0.0, 1.0);
+  r.ReadRange("point_spacing_m", &point_spacing_m, 0.0, 1.0);
+  r.ReadRange("normal_neighbours", &normal_neighbours, 4, 200);
+  r.ReadRange("poisson_depth", &poisson_depth, 5, 14);
+  r.ReadRange("poisson_trim", &poisson_trim, 0.0, 20.0);
+  r.Read("colmap", &colmap);
+  r.ReadRange("min_points", &min_points, 10, 100000000);
+  r.Read("sparse_fallback", &sparse_fallback);
+  r.ReadRange("advancing_front_radius_ratio", &advancing_front_radius_ratio, 1.0, 1000.0);
+  r.ReadRange("advancing_front_beta", &advancing_front_beta, 0.01, 3.14);
+  r.ReadRange("threads", &threads, 0, 1024);
+  r.Finish();
+}
+
+void ProxyOptions::Check() const {
+  RELIT_REQUIRE(method == "dense" || method == "sparse" || method == "mesh",
+                "proxy.method must be dense, sparse or mesh, got '", method, "'");
+  RELIT_REQUIRE(max_frames == 0 || max_frames >= 3, "proxy.max_frames must be 0 (all) or >= 3, got ", max_frames);
+  RELIT_REQUIRE(neighbours >= 1, "proxy.neighbours must be >= 1");
+  RELIT_REQUIRE(min_baseline_deg > 0 && min_baseline_deg <= target_baseline_deg &&
+                    target_baseline_deg <= max_baseline_deg,
+                "proxy: need 0 < min_baseline_deg <= target_baseline_deg <= max_baseline_deg, got ",
+                min_baseline_deg, ", ", target_baseline_deg, ", ", max_baseline_deg);
+  RELIT_REQUIRE(block_size_px >= 1 && block_size_px % 2 == 1, "proxy.block_size_px must be odd, got ",
+                block_size_px);
+  RELIT_REQUIRE(depth_tolerance > 0, "proxy.depth_tolerance must be > 0");
+  RELIT_REQUIRE(min_consistent_views >= 0, "proxy.min_consistent_views must be >= 0");
+  RELIT_REQUIRE(!colmap.empty(), "proxy.colmap (the COLMAP executable) must not be empty");
+  RELIT_REQUIRE(poisson_depth >= 5, "proxy.poisson_depth must be >= 5");
+  RELIT_REQUIRE(threads >= 0, "proxy.threads must be >= 0");
+}
+
+nlohmann::json ProxyOptions::ToJson() const {
+  return {{"method", method},
+          {"max_frames", max_frames},
+          {"neighbours", neighbours},
+          {"min_baseline_deg", min_baseline_deg},
+          {"target_baseline_deg", target_baseline_deg},
+          {"max_baseline_deg", max_baseline_deg},
+          {"block_size_px", block_size_px},
+          {"uniqueness_ratio", uniqueness_ratio},
+          {"speckle_window_px", speckle_window_px},
+          {"max_left_right_difference_px", max_left_right_difference_px},
+          {"min_consistent_views", min_consistent_views},
+          {"depth_tolerance", depth_tolerance},
+          {"min_height_m", min_height_m},
+          {"min_cluster_fraction", min_cluster_fraction},
+          {"point_spacing_m", point_spacing_m},
+          {"normal_neighbours", normal_neighbours},
+          {"poisson_depth", poisson_depth},
+          {"poisson_trim", poisson_trim},
+          {"colmap", colmap},
+          {"min_points", min_points},
+          {"sparse_fallback", sparse_fallback},
+          {"advancing_front_radius_ratio", advancing_front_radius_ratio},
+          {"advancing_front_beta", advancing_front_beta},
+          {"threads", threads}};
+}
+
 void CleanupOptions::Read(OptionsReader& r) {
   r.ReadRange("crop_margin_m", &crop_margin_m, 0.0, 1.0);
   r.ReadRange("crop_radius_m", &crop_radius_m, 0.0, 100.0);
@@ -122,6 +195,10 @@ void ReconstructOptions::Read(OptionsReader& r) {
   r.Read("mesh", &mesh);
   r.Read("log_level", &log_level);
   r.ReadRange("max_matte_frames", &max_matte_frames, 0, 1000000);
+  OptionsReader p = r.Child("proxy");
+  const bool method_given = p.Has("method");
+  proxy.Read(p);
+  if (!mesh.empty() && !method_given) proxy.method = "mesh";  // mesh: alone means "use it"
   OptionsReader c = r.Child("cleanup");
   cleanup.Read(c);
   OptionsReader a = r.Child("atlas");
@@ -136,6 +213,11 @@ void ReconstructOptions::Read(OptionsReader& r) {
 void ReconstructOptions::Check() const {
   RELIT_REQUIRE(!workspace.empty(), "reconstruct: the workspace is required (--workspace W)");
   RELIT_REQUIRE(max_matte_frames >= 0, "max_matte_frames must be >= 0");
+  proxy.Check();
+  RELIT_REQUIRE(proxy.method != "mesh" || !mesh.empty(),
+                "reconstruct: proxy.method is mesh but no mesh is given (--mesh FILE or mesh: in the YAML)");
+  RELIT_REQUIRE(mesh.empty() || proxy.method == "mesh", "reconstruct: a mesh (", mesh,
+                ") is given but proxy.method is ", proxy.method, "; set proxy.method: mesh (--mesh does)");
   cleanup.Check();
   atlas.Check();
   trimap.Check();
@@ -147,6 +229,7 @@ nlohmann::json ReconstructOptions::ToJson() const {
           {"mesh", mesh},
           {"log_level", log_level},
           {"max_matte_frames", max_matte_frames},
+          {"proxy", proxy.ToJson()},
           {"cleanup", cleanup.ToJson()},
           {"atlas", atlas.ToJson()},
           {"trimap", trimap.ToJson()},

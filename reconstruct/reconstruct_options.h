@@ -12,6 +12,52 @@
 
 namespace relit::reconstruct {
 
+// Where the proxy mesh comes from (docs/reconstruct.md, "Proxy source").
+struct ProxyOptions {
+  // dense: per-view StereoSGBM depth maps, multi-view consistency, fused
+  //   oriented points, screened Poisson (COLMAP poisson_mesher).
+  // sparse: CGAL advancing-front surface over COLMAP's sparse points
+  //   (W/calib/model/points3D.txt) or, without them, the fused depth points.
+  // mesh: the user-supplied `mesh` (set by --mesh).
+  std::string method = "dense";
+  int max_frames = 0;                   // frames used for depth (0 = all; else evenly spaced)
+  // Stereo neighbours of each reference frame: up to `neighbours`, with a
+  // triangulation angle at the crop centre in [min, max] degrees, closest
+  // to target_baseline_deg, preferring one on each side.
+  int neighbours = 2;
+  double min_baseline_deg = 4.0;
+  double target_baseline_deg = 10.0;
+  double max_baseline_deg = 25.0;
+  // OpenCV StereoSGBM on the rectified pair (P1/P2 = 8/32 x channels x block²).
+  int block_size_px = 5;
+  int uniqueness_ratio = 10;
+  int speckle_window_px = 50;
+  double max_left_right_difference_px = 1.0;  // left-right consistency of the disparities
+  // Multi-view geometric consistency: a depth pixel survives when at least
+  // min_consistent_views other frames see the point at the same depth
+  // (relative difference below depth_tolerance).
+  int min_consistent_views = 2;
+  double depth_tolerance = 0.01;
+  double min_height_m = 0.01;           // depth points at or below this height are the board/table
+  double min_cluster_fraction = 0.2;    // point clusters smaller than this x the largest are dropped
+  double point_spacing_m = 0;           // grid for the fused points (0 = 1.5 x the median pixel footprint)
+  int normal_neighbours = 18;           // CGAL jet normal fit
+  // COLMAP poisson_mesher (screened Poisson, Kazhdan & Hoppe 2013): octree
+  // depth and density trim (drop surface supported by few points).
+  int poisson_depth = 8;
+  double poisson_trim = 5.0;
+  std::string colmap = "colmap";        // COLMAP executable
+  int min_points = 2000;                // fewer fused points: sparse fallback (warning) or error
+  bool sparse_fallback = true;
+  // Advancing front (sparse): CGAL's radius_ratio_bound and beta (radians).
+  double advancing_front_radius_ratio = 5.0;
+  double advancing_front_beta = 0.52;
+  int threads = 0;                      // 0 = all cores
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
 struct CleanupOptions {
   // Crop: keep faces strictly above the board plane (z > crop_margin_m)
   // and within crop_radius_m (horizontal distance) of the object centre.
@@ -81,9 +127,10 @@ struct MattingOptions {
 
 struct ReconstructOptions {
   std::string workspace;                // W: reads W/calib, writes W/reconstruct
-  std::string mesh;                     // user-supplied mesh (OBJ/PLY, world frame); replaces the dense step
+  std::string mesh;                     // user-supplied mesh (OBJ/PLY, world frame); needs proxy.method: mesh
   std::string log_level = "info";
   int max_matte_frames = 0;             // 0 = every phone V frame
+  ProxyOptions proxy;
   CleanupOptions cleanup;
   AtlasOptions atlas;
   TrimapOptions trimap;

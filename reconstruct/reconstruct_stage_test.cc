@@ -110,6 +110,17 @@ TEST(ReconstructOptions, UnknownKeysAndBadValuesAreErrors) {
   options.workspace = "w";
   EXPECT_NO_THROW(options.Check());
   EXPECT_EQ(options.ToJson()["atlas"]["resolution_px"], 1024);
+  EXPECT_EQ(options.proxy.method, "dense");
+  ReconstructOptions proxy_typo, proxy_bad, with_mesh;
+  OptionsReader typo2 = OptionsReader::FromString("proxy:\n  neighbors: 2\n");
+  EXPECT_THROW(proxy_typo.Read(typo2), Error);
+  OptionsReader bad = OptionsReader::FromString("proxy:\n  method: mvs\n");
+  proxy_bad.Read(bad);
+  proxy_bad.workspace = "w";
+  EXPECT_THROW(proxy_bad.Check(), Error);
+  OptionsReader mesh_only = OptionsReader::FromString("mesh: scan.obj\n");
+  with_mesh.Read(mesh_only);
+  EXPECT_EQ(with_mesh.proxy.method, "mesh");  // a mesh alone selects it
 }
 
 TEST(Reconstruct, UserMeshToProxyAtlasAndMattes) {
@@ -119,6 +130,7 @@ TEST(Reconstruct, UserMeshToProxyAtlasAndMattes) {
   // A rough proxy: the object inflated by 3 mm (Poisson/stereo-like), so the
   // projected silhouette is off by ~2 px and the matte has work to do.
   options.mesh = ws.rough_mesh;
+  options.proxy.method = "mesh";
   const ReconstructSummary summary = RunReconstructImpl(options);
   EXPECT_EQ(summary.mattes, static_cast<int>(ws.cameras.frames.size()));
   const fs::path out = fs::path(ws.dir) / "reconstruct";
@@ -176,8 +188,9 @@ TEST(Reconstruct, BadInputsAreClearErrors) {
   const testing::TestWorkspace& ws = Workspace();
   ReconstructOptions options;
   options.workspace = ws.dir;
+  options.proxy.method = "mesh";
   try {
-    RunReconstructImpl(options);  // no mesh source
+    RunReconstructImpl(options);  // method mesh without a mesh
     ADD_FAILURE() << "no error";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("--mesh"), std::string::npos) << e.what();

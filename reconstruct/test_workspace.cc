@@ -6,6 +6,7 @@
 
 #include "core/color.h"
 #include "core/image.h"
+#include "core/render/envmaps.h"
 #include "core/render/path_tracer.h"
 #include "core/render/scene.h"
 #include "tools/synth/capture_plan.h"
@@ -35,13 +36,15 @@ render::TriangleMesh Weld(const render::TriangleMesh& mesh) {
 
 }  // namespace
 
-TestWorkspace MakeTestWorkspace(const std::string& dir, int frames, int samples_per_pixel, double rough_offset_m) {
+TestWorkspace MakeTestWorkspace(const std::string& dir, int frames, int samples_per_pixel, double rough_offset_m,
+                                int geometry_frames) {
   TestWorkspace ws;
   ws.dir = dir;
   fs::remove_all(dir);
   fs::create_directories(fs::path(dir) / "calib" / "undistorted");
   synth::SynthOptions options = synth::SynthOptions::ForSize("tiny");
   options.out = dir;  // required by the plan's option check; nothing is written there by synth
+  options.geometry_pass = geometry_frames > 0;
   const synth::SynthScene scene = synth::BuildScene("spot", options.board, synth::DefaultAssetsDir());
   const synth::CapturePlan plan = synth::MakeCapturePlan(options, scene);
   render::TriangleMesh scan;
@@ -76,36 +79,47 @@ TestWorkspace MakeTestWorkspace(const std::string& dir, int frames, int samples_
   ws.cameras.undistorted_view = plan.view_intrinsics.WithoutDistortion();
   render::Scene render_scene;
   scene.AddTo(&render_scene);
-  const int count = static_cast<int>(plan.view.frames.size());
-  for (int i = 0; i < frames; ++i) {
-    const synth::FramePlan& f = plan.view.frames[static_cast<size_t>(i) * count / frames];
-    render_scene.ClearLights();
-    render_scene.AddLight(render::PointLight{f.light_position_world.cast<float>(),
-                                             render::Rgb::Constant(static_cast<float>(options.flash_intensity_w_per_sr))});
-    if (i == 0) render_scene.Commit();
-    CalibratedFrame frame;
-    char name[32];
-    std::snprintf(name, sizeof(name), "view/%06d", f.index);
-    frame.name = name;
-    frame.device = "view";
-    frame.time_s = f.t_common_s;
-    frame.cam_from_world = f.cam_from_world;
-    const std::string stem = "calib/undistorted/" + std::string(name);
-    frame.image_linear = stem + ".exr";
-    frame.image_8bit = stem + ".png";
-    const Camera camera = ws.cameras.ViewCamera(frame);
-    render::RenderOptions ro;
-    ro.samples_per_pixel = samples_per_pixel;
-    ro.max_depth = 2;
-    ro.seed = static_cast<uint64_t>(f.index + 1);
-    ro.alpha_object_ids = scene.ForegroundIds();
-    const render::RenderResult result = render::RenderImage(render_scene, camera, ro);
-    fs::create_directories((fs::path(dir) / stem).parent_path());
-    WriteImage((fs::path(dir) / frame.image_linear).string(), result.radiance);
-    WriteImage((fs::path(dir) / frame.image_8bit).string(), EncodeImage(result.radiance, TransferFunction::kSrgb),
-               PixelStorage::kUint8);
-    ws.truth_alpha.push_back(result.alpha.ToMat().clone());
-    ws.cameras.frames.push_back(frame);
+  render_scene.Commit();
+  const render::EnvironmentLight room(render::MakeSoftRoomMap(256), static_cast<float>(options.geometry_ambient_scale));
+  for (const synth::VideoPlan* video : {&plan.view, &plan.geometry}) {
+    const bool geometry = video == &plan.geometry;
+    const int wanted = geometry ? geometry_frames : frames;
+    if (wanted <= 0) continue;
+    if (geometry) ws.cameras.devices["geometry"] = plan.view_intrinsics;
+    const int count = static_cast<int>(video->frames.size());
+    for (int i = 0; i < wanted; ++i) {
+      const synth::FramePlan& f = video->frames[static_cast<size_t>(i) * count / wanted];
+      render_scene.ClearLights();
+      if (geometry) {
+        render_scene.SetEnvironment(room);
+      } else {
+        render_scene.AddLight(render::PointLight{f.light_position_world.cast<float>(),
+                                                 render::Rgb::Constant(static_cast<float>(options.flash_intensity_w_per_sr))});
+      }
+      CalibratedFrame frame;
+      char name[32];
+      std::snprintf(name, sizeof(name), "%s/%06d", geometry ? "geometry" : "view", f.index);
+      frame.name = name;
+      frame.device = geometry ? "geometry" : "view";
+      frame.time_s = f.t_common_s;
+      frame.cam_from_world = f.cam_from_world;
+      const std::string stem = "calib/undistorted/" + std::string(name);
+      frame.image_linear = stem + ".exr";
+      frame.image_8bit = stem + ".png";
+      const Camera camera = ws.cameras.ViewCamera(frame);
+      render::RenderOptions ro;
+      ro.samples_per_pixel = samples_per_pixel;
+      ro.max_depth = 2;
+      ro.seed = static_cast<uint64_t>(f.index + 1 + (geometry ? 100000 : 0));
+      ro.alpha_object_ids = scene.ForegroundIds();
+      const render::RenderResult result = render::RenderImage(render_scene, camera, ro);
+      fs::create_directories((fs::path(dir) / stem).parent_path());
+      WriteImage((fs::path(dir) / frame.image_linear).string(), result.radiance);
+      WriteImage((fs::path(dir) / frame.image_8bit).string(), EncodeImage(result.radiance, TransferFunction::kSrgb),
+                 PixelStorage::kUint8);
+      ws.truth_alpha.push_back(result.alpha.ToMat().clone());
+      ws.cameras.frames.push_back(frame);
+    }
   }
   WriteCamerasFile((fs::path(dir) / "calib" / "cameras.json").string(), ws.cameras);
   return ws;

@@ -18,7 +18,7 @@ namespace relit::reconstruct::testing {
 struct TestWorkspace {
   std::string dir;                          // the workspace W
   CamerasFile cameras;
-  std::vector<cv::Mat> truth_alpha;         // CV_32F per view frame, same order as cameras.frames
+  std::vector<cv::Mat> truth_alpha;         // CV_32F per frame, same order as cameras.frames
   render::TriangleMesh truth_mesh;          // foreground objects, world frame
   std::string user_mesh;                    // W/user_mesh.obj: truth + board + table (a "scan")
   // W/rough_mesh.obj: like user_mesh, but the object inflated along its
@@ -26,9 +26,11 @@ struct TestWorkspace {
   std::string rough_mesh;
 };
 
-// Renders `frames` phone V frames spread over the tiny spot capture.
+// Renders `frames` phone V frames spread over the tiny spot capture, and
+// `geometry_frames` frames of its geometry pass (device "geometry", phone V's
+// undistorted camera, soft ambient room light as relit-synth renders it).
 TestWorkspace MakeTestWorkspace(const std::string& dir, int frames, int samples_per_pixel = 16,
-                                double rough_offset_m = 0.003);
+                                double rough_offset_m = 0.003, int geometry_frames = 0);
 
 // Mean squared error and sum of absolute differences of two CV_32F mattes.
 double MatteMse(const cv::Mat& a, const cv::Mat& b);

@@ -1,0 +1,45 @@
+// Multi-view geometric consistency and fusion of per-view depth maps into
+// one point cloud (the dense proxy path): a depth pixel survives when it
+// lies in the crop region above the board and at least
+// options.min_consistent_views other frames measured the same depth there;
+// the survivor is the mean of the agreeing 3D points and remembers the
+// direction to the camera that measured it (to orient its normal).
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "core/camera.h"
+#include "reconstruct/mesh_cleanup.h"
+#include "reconstruct/reconstruct_options.h"
+
+namespace relit::reconstruct {
+
+struct FusedPoint {
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();   // world
+  Eigen::Vector3d to_camera = Eigen::Vector3d::UnitZ();    // unit, towards the observing camera
+};
+
+struct FrameFusionStats {
+  int depth_px = 0;        // pixels with a stereo depth
+  int in_crop_px = 0;      // ... whose point lies in the crop region above the board
+  int consistent_px = 0;   // ... confirmed by enough other frames
+  nlohmann::json ToJson() const;
+};
+
+// `depths[i]` is the CV_32F depth map (0 = none) of `cameras[i]`.
+// Thread-parallel over frames; `on_frame_done` (may be empty) is called once
+// per frame from worker threads.
+std::vector<FusedPoint> FuseDepthMaps(const std::vector<Camera>& cameras, const std::vector<cv::Mat>& depths,
+                                      const CropRegion& crop, const ProxyOptions& options,
+                                      std::vector<FrameFusionStats>* stats,
+                                      const std::function<void()>& on_frame_done = {});
+
+// True for a world point inside the crop cylinder and above min_height_m.
+bool InCrop(const Eigen::Vector3d& p, const CropRegion& crop, double min_height_m);
+
+}  // namespace relit::reconstruct
