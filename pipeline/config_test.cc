@@ -1,0 +1,170 @@
+// pipeline.yaml parsing: errors name file, line and key (also inside the
+// stage sections, read with the stages' own readers); the template and the
+// repository's demo pipeline.yaml parse; per-step configs and parameters.
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "pipeline/config.h"
+#include "pipeline/steps.h"
+#include "pipeline/test_support.h"
+
+namespace relit::pipeline {
+namespace {
+
+using testing::TempDir;
+
+const char* kMinimal = "inputs: {view: v.mp4, light: l.mp4}\n";
+
+std::string ErrorOf(const std::string& yaml) {
+  try {
+    PipelineConfig::FromString(yaml, "/cap/pipeline.yaml", "/cap");
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+TEST(PipelineConfigTest, UnknownTopLevelKeyNamesFileLineAndSuggestion) {
+  const std::string e = ErrorOf(std::string(kMinimal) + "board: {}\ncalibb: {}\n");
+  EXPECT_NE(e.find("/cap/pipeline.yaml:3"), std::string::npos) << e;
+  EXPECT_NE(e.find("unknown key 'calibb'"), std::string::npos) << e;
+  EXPECT_NE(e.find("did you mean 'calib'"), std::string::npos) << e;
+}
+
+TEST(PipelineConfigTest, UnknownKeyInsideAStageSectionIsFoundBeforeRunning) {
+  const std::string e =
+      ErrorOf(std::string(kMinimal) + "calib:\n  detect:\n    min_corner: 8\n");
+  EXPECT_NE(e.find("pipeline.yaml:4"), std::string::npos) << e;
+  EXPECT_NE(e.find("'calib.detect.min_corner'"), std::string::npos) << e;
+  EXPECT_NE(e.find("min_corners"), std::string::npos) << e;  // the suggestion
+}
+
+TEST(PipelineConfigTest, WrongTypesNameLineAndKey) {
+  std::string e = ErrorOf(std::string(kMinimal) + "run:\n  jobs: many\n");
+  EXPECT_NE(e.find("pipeline.yaml:3"), std::string::npos) << e;
+  EXPECT_NE(e.find("'run.jobs'"), std::string::npos) << e;
+  EXPECT_NE(e.find("integer"), std::string::npos) << e;
+
+  e = ErrorOf(std::string(kMinimal) + "capture:\n  view_select: {target_frames: lots}\n");
+  EXPECT_NE(e.find("pipeline.yaml:3"), std::string::npos) << e;
+  EXPECT_NE(e.find("'capture.view_select.target_frames'"), std::string::npos) << e;
+
+  e = ErrorOf(std::string(kMinimal) + "reconstruct:\n  atlas:\n    resolution_px: [1, 2]\n");
+  EXPECT_NE(e.find("pipeline.yaml:4"), std::string::npos) << e;
+  EXPECT_NE(e.find("'reconstruct.atlas.resolution_px'"), std::string::npos) << e;
+
+  e = ErrorOf(std::string(kMinimal) + "board: {squares_x: 7.5}\n");
+  EXPECT_NE(e.find("'board.squares_x'"), std::string::npos) << e;
+
+  e = ErrorOf(std::string(kMinimal) + "relight: 3\n");
+  EXPECT_NE(e.find("'relight' must be a mapping"), std::string::npos) << e;
+}
+
+TEST(PipelineConfigTest, BadValuesAndMissingInputs) {
+  EXPECT_NE(ErrorOf("inputs: {light: l.mp4}\n").find("inputs.view is required"), std::string::npos);
+  EXPECT_NE(ErrorOf(std::string(kMinimal) + "run: {executor: pbs}\n").find("local or slurm"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(std::string(kMinimal) + "slurm: {steps: [trian]}\n").find("unknown step kind 'trian'"),
+            std::string::npos);
+  // The stage's own checks run too (here: capture needs exactly one of
+  // target_frames and target_fps).
+  const std::string e =
+      ErrorOf(std::string(kMinimal) + "capture: {view_select: {target_frames: 10, target_fps: 2}}\n");
+  EXPECT_NE(e.find("capture: "), std::string::npos) << e;
+  EXPECT_NE(e.find("target_fps"), std::string::npos) << e;
+}
+
+TEST(PipelineConfigTest, KeysRelitSetsItselfAreRejected) {
+  std::string e = ErrorOf(std::string(kMinimal) + "capture:\n  view: other.mp4\n");
+  EXPECT_NE(e.find("pipeline.yaml:3"), std::string::npos) << e;
+  EXPECT_NE(e.find("inputs.view"), std::string::npos) << e;
+  e = ErrorOf(std::string(kMinimal) + "calib: {board: {squares_x: 9}}\n");
+  EXPECT_NE(e.find("top-level board"), std::string::npos) << e;
+  e = ErrorOf(std::string(kMinimal) + "reconstruct: {mesh: a.obj}\n");
+  EXPECT_NE(e.find("inputs.proxy_mesh"), std::string::npos) << e;
+}
+
+TEST(PipelineConfigTest, RelightSectionTopLevelKeysAreChecked) {
+  const std::string e = ErrorOf(std::string(kMinimal) + "relight:\n  train: {}\n  trian: {}\n");
+  EXPECT_NE(e.find("pipeline.yaml:4"), std::string::npos) << e;
+  EXPECT_NE(e.find("'relight.trian'"), std::string::npos) << e;
+  // Deeper keys belong to relit-relight, which checks them itself.
+  EXPECT_EQ(ErrorOf(std::string(kMinimal) + "relight: {partitions: {layout: single}, train: {steps: 5}}\n"),
+            "(no error)");
+}
+
+TEST(PipelineConfigTest, PathsAreRelativeToTheYamlFolder) {
+  const PipelineConfig c = PipelineConfig::FromString(
+      "inputs: {view: cap/v.mp4, light: /abs/l.mp4, proxy_mesh: ../m.obj}\n"
+      "tools: {relight: bin/relit-relight}\n",
+      "/data/x/pipeline.yaml", "/data/x");
+  EXPECT_EQ(c.view, "/data/x/cap/v.mp4");
+  EXPECT_EQ(c.light, "/abs/l.mp4");
+  EXPECT_EQ(c.proxy_mesh, "/data/m.obj");
+  EXPECT_EQ(c.geometry, "");
+  EXPECT_EQ(c.tools.at("relight"), "/data/x/bin/relit-relight");
+}
+
+TEST(PipelineConfigTest, SlurmResourcesPerKindStartFromTheDefaults) {
+  const PipelineConfig c = PipelineConfig::FromString(
+      std::string(kMinimal) +
+          "run: {executor: slurm}\n"
+          "slurm:\n  resources: {partition: cpu, cpus: 4, memory: 6G}\n  train: {gpus: 1, time: '1:00:00'}\n",
+      "p.yaml", "/");
+  EXPECT_EQ(c.executor, "slurm");
+  EXPECT_EQ(c.slurm.For("cues").cpus, 4);
+  EXPECT_EQ(c.slurm.For("train").partition, "cpu");
+  EXPECT_EQ(c.slurm.For("train").memory, "6G");
+  EXPECT_EQ(c.slurm.For("train").gpus, 1);
+  EXPECT_EQ(c.slurm.For("train").time, "1:00:00");
+  EXPECT_EQ(c.slurm.For("cues").gpus, 0);
+}
+
+TEST(PipelineConfigTest, TemplateAndDemoPipelineParse) {
+  TempDir dir;
+  testing::WriteText(dir.path() / "pipeline.yaml", PipelineTemplate());
+  const PipelineConfig t = PipelineConfig::Load((dir.path() / "pipeline.yaml").string());
+  EXPECT_EQ(t.view, (dir.path() / "view.mp4").string());
+  EXPECT_EQ(t.jobs, 1);
+
+  const PipelineConfig demo = PipelineConfig::Load(std::string(RELIT_SOURCE_DIR) + "/pipeline.yaml");
+  EXPECT_EQ(demo.view, std::string(RELIT_SOURCE_DIR) + "/demo/capture/view.mp4");
+  EXPECT_EQ(demo.board["dictionary"].as<std::string>(), "DICT_4X4_50");  // the synth demo board
+}
+
+TEST(PipelineConfigTest, StepsGetTheirSectionAsConfigAndHashOnlyWhatTheyRead) {
+  const PipelineConfig c = PipelineConfig::FromString(
+      "inputs: {view: v.mp4, light: l.mp4, board_view_images: bv}\n"
+      "board: {squares_x: 9, dictionary: DICT_4X4_50}\n"
+      "calib: {detect: {min_corners: 8}, log_level: debug}\n"
+      "relight: {cues: {samples: 4}, train: {steps: 10}, partitions: {layout: single}}\n",
+      "/c/pipeline.yaml", "/c");
+  StepGraph graph(c, "/w", false);
+  graph.ExpandPartitions({0});
+  const Step* calib = graph.Find("calib");
+  ASSERT_NE(calib, nullptr);
+  // The board and the board clip are injected into calib's config file.
+  EXPECT_NE(calib->config_yaml.find("squares_x: 9"), std::string::npos) << calib->config_yaml;
+  EXPECT_NE(calib->config_yaml.find("view_board_images: /c/bv"), std::string::npos);
+  EXPECT_EQ(calib->params["board"]["squares_x"], "9");
+  EXPECT_FALSE(calib->params["calib"].contains("log_level"));  // printing is not a parameter
+  ASSERT_EQ(calib->inputs.size(), 1u);
+  EXPECT_EQ(calib->inputs[0].role, "inputs.board_view_images");
+
+  const Step* cues = graph.Find("cues");
+  const Step* train = graph.Find("train-00");
+  ASSERT_TRUE(cues && train);
+  EXPECT_EQ(cues->params.size(), 1u);
+  EXPECT_TRUE(cues->params.contains("relight.cues"));
+  EXPECT_FALSE(train->params.contains("relight.cues"));
+  EXPECT_EQ(train->params["relight.train"]["steps"], "10");
+  // Every relight sub-step gets the whole relight: section (the contract).
+  EXPECT_EQ(cues->config_yaml, train->config_yaml);
+  EXPECT_EQ(train->args[0], "train");
+  EXPECT_EQ(train->output, "relight/partitions/00");
+  const Step* render = graph.Find("render");
+  EXPECT_NE(std::find(render->deps.begin(), render->deps.end(), "train-00"), render->deps.end());
+}
+
+}  // namespace
+}  // namespace relit::pipeline

@@ -1,0 +1,111 @@
+#include "pipeline/selection.h"
+
+#include <algorithm>
+#include <map>
+#include <set>
+
+#include "core/error.h"
+
+namespace relit::pipeline {
+
+namespace {
+
+// The step graph at the level of kinds (steps.cc builds the same edges per
+// step; the train steps only exist once plan ran, so selections are decided
+// on kinds).
+const std::map<std::string, std::vector<std::string>>& KindDeps() {
+  static const std::map<std::string, std::vector<std::string>> kDeps = {
+      {"capture", {}},
+      {"calib", {"capture"}},
+      {"reconstruct", {"calib"}},
+      {"cues", {"calib", "reconstruct"}},
+      {"plan", {"calib", "reconstruct"}},
+      {"train", {"calib", "reconstruct", "cues", "plan"}},
+      {"render", {"calib", "reconstruct", "plan", "train"}},
+      {"export", {"reconstruct", "plan", "train"}},
+      {"report", {"capture", "calib", "reconstruct", "cues", "plan", "train", "render", "export"}}};
+  return kDeps;
+}
+
+// The kinds a selector names.
+std::vector<std::string> KindsOf(const std::string& selector) {
+  if (selector == "relight") return {"cues", "plan", "train", "render", "export"};
+  if (selector.rfind("train-", 0) == 0) return {"train"};
+  return {selector};
+}
+
+bool Contains(const std::vector<std::string>& v, const std::string& s) {
+  return std::find(v.begin(), v.end(), s) != v.end();
+}
+
+}  // namespace
+
+std::vector<std::string> UpstreamKinds(const std::string& kind) {
+  std::set<std::string> found;
+  std::vector<std::string> stack = {kind};
+  while (!stack.empty()) {
+    const std::string k = stack.back();
+    stack.pop_back();
+    for (const std::string& d : KindDeps().at(k)) {
+      if (found.insert(d).second) stack.push_back(d);
+    }
+  }
+  return {found.begin(), found.end()};
+}
+
+std::vector<std::string> DownstreamKinds(const std::string& kind) {
+  std::vector<std::string> result;
+  for (const auto& [k, deps] : KindDeps()) {
+    if (Contains(UpstreamKinds(k), kind)) result.push_back(k);
+  }
+  return result;
+}
+
+Selection::Selection(std::vector<std::string> only, std::vector<std::string> from,
+                     std::vector<std::string> to, std::vector<std::string> force)
+    : only_(std::move(only)), from_(std::move(from)), to_(std::move(to)), force_(std::move(force)) {
+  for (const auto* list : {&only_, &from_, &to_, &force_}) {
+    for (const std::string& s : *list) {
+      RELIT_REQUIRE(IsKnownSelector(s), "unknown step '", s,
+                    "': use capture, calib, reconstruct, cues, plan, train (or train-KK for one "
+                    "partition), render, export, report, or relight for all relight steps");
+    }
+  }
+}
+
+bool Selection::Selected(const Step& step) const {
+  auto any = [&](const std::vector<std::string>& selectors, auto&& test) {
+    return std::any_of(selectors.begin(), selectors.end(), test);
+  };
+  if (!only_.empty() && !any(only_, [&](const std::string& s) { return SelectorMatches(s, step); })) {
+    return false;
+  }
+  if (!from_.empty() && !any(from_, [&](const std::string& s) {
+        if (SelectorMatches(s, step)) return true;
+        for (const std::string& k : KindsOf(s)) {
+          if (Contains(DownstreamKinds(k), step.kind)) return true;
+        }
+        return false;
+      })) {
+    return false;
+  }
+  if (!to_.empty() && !any(to_, [&](const std::string& s) {
+        if (SelectorMatches(s, step)) return true;
+        for (const std::string& k : KindsOf(s)) {
+          if (Contains(UpstreamKinds(k), step.kind)) return true;
+        }
+        return false;
+      })) {
+    return false;
+  }
+  return true;
+}
+
+bool Selection::Forced(const Step& step) const {
+  for (const std::string& s : force_) {
+    if (SelectorMatches(s, step)) return true;
+  }
+  return !from_.empty() && Selected(step);
+}
+
+}  // namespace relit::pipeline
