@@ -53,10 +53,7 @@ AssetDescription ReadAsset(const std::string& dir) {
   RELIT_REQUIRE(fs::exists(path), path, " is missing: not a relit asset folder (make one with relit-relight export)");
   const json j = ReadJsonFile(path, AssetDescription::kKind, AssetDescription::kVersion);
   AssetDescription asset;
-  const json& layout = JsonField(j, "layout_options", path);
-  asset.layout_options.layout = JsonField(layout, "layout", path).get<std::string>();
-  asset.layout_options.elevation_deg = layout.value("elevation_deg", std::vector<double>{});
-  asset.layout_options.azimuth_deg = layout.value("azimuth_deg", std::vector<double>{});
+  asset.layout_options = PartitionLayoutOptionsFromJson(JsonField(j, "layout_options", path), path);
   asset.object_centre_m = Vector3FromJson(JsonField(j, "object_centre_m", path), path);
   asset.object_radius_m = JsonNumber(j, "object_radius_m", path);
   asset.camera = IntrinsicsFromJson(JsonField(j, "camera", path), path + ": camera");

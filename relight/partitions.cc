@@ -8,6 +8,7 @@
 #include <Eigen/LU>
 
 #include "core/error.h"
+#include "core/json_file.h"
 #include "core/options.h"
 
 namespace relit::relight {
@@ -89,6 +90,14 @@ std::vector<HullFace> SphereHull(const std::vector<Eigen::Vector3d>& points) {
 Eigen::Vector3d DirectionFromElevationAzimuthDeg(double elevation_deg, double azimuth_deg) {
   const double el = elevation_deg * kDegToRad, az = azimuth_deg * kDegToRad;
   return {std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)};
+}
+
+PartitionLayoutOptions PartitionLayoutOptionsFromJson(const nlohmann::json& j, const std::string& where) {
+  PartitionLayoutOptions options;
+  options.layout = JsonField(j, "layout", where).get<std::string>();
+  options.elevation_deg = j.value("elevation_deg", std::vector<double>{});
+  options.azimuth_deg = j.value("azimuth_deg", std::vector<double>{});
+  return options;
 }
 
 void PartitionLayoutOptions::Read(OptionsReader& reader) {

@@ -48,6 +48,10 @@ struct PartitionLayoutOptions {
   nlohmann::json ToJson() const;
 };
 
+// The inverse of PartitionLayoutOptions::ToJson (absent vertex lists = empty).
+// Throws relit::Error naming `where` when "layout" is missing.
+PartitionLayoutOptions PartitionLayoutOptionsFromJson(const nlohmann::json& j, const std::string& where);
+
 // Blend of up to three partitions for one view direction.
 struct PartitionBlend {
   int count = 0;                          // 1 (single layout), 2 or 3

@@ -30,10 +30,7 @@ Plan ReadPlan(const std::string& path) {
   RELIT_REQUIRE(fs::exists(path), path, " is missing: run `relit-relight plan` first");
   const json j = ReadJsonFile(path, Plan::kKind, Plan::kVersion);
   Plan plan;
-  const json& layout = JsonField(j, "layout_options", path);
-  plan.layout_options.layout = JsonField(layout, "layout", path).get<std::string>();
-  plan.layout_options.elevation_deg = layout.value("elevation_deg", std::vector<double>{});
-  plan.layout_options.azimuth_deg = layout.value("azimuth_deg", std::vector<double>{});
+  plan.layout_options = PartitionLayoutOptionsFromJson(JsonField(j, "layout_options", path), path);
   plan.object_centre_m = Vector3FromJson(JsonField(j, "object_centre_m", path), path);
   plan.object_radius_m = JsonNumber(j, "object_radius_m", path);
   plan.max_radiance = JsonNumber(j, "max_radiance", path);
