@@ -31,6 +31,8 @@ NeuralTextureOptions ModelOptions::TextureOptions() const {
   t.resolution_px = texture_resolution_px;
   t.channels_per_basis = channels_per_basis;
   t.mip_levels = mip_levels;
+  t.init_min = 1.0 - texture_init_spread;
+  t.init_max = 1.0 + texture_init_spread;
   return t;
 }
 
@@ -41,6 +43,8 @@ GeneratorOptions ModelOptions::RendererOptions() const {
   g.ngf = ngf;
   g.n_blocks = n_blocks;
   g.upsampling = upsampling;
+  g.norm = norm;
+  g.input_skip = input_skip;
   g.output_tanh = true;
   return g;
 }
@@ -63,6 +67,9 @@ void ModelOptions::Read(OptionsReader& reader) {
   reader.ReadRange("mask_ngf", &mask_ngf, 1, 512);
   reader.ReadRange("mask_n_blocks", &mask_n_blocks, 0, 64);
   reader.Read("upsampling", &upsampling);
+  reader.Read("norm", &norm);
+  reader.Read("input_skip", &input_skip);
+  reader.ReadRange("texture_init_spread", &texture_init_spread, 0.0, 1.0);
   reader.Read("max_radiance", &max_radiance);
   reader.Read("device", &device);
   reader.Finish();
@@ -88,12 +95,16 @@ nlohmann::json ModelOptions::ToJson() const {
           {"mask_ngf", mask_ngf},
           {"mask_n_blocks", mask_n_blocks},
           {"upsampling", upsampling},
+          {"norm", norm},
+          {"input_skip", input_skip},
+          {"texture_init_spread", texture_init_spread},
           {"max_radiance", max_radiance},
           {"device", device}};
 }
 
 void TrainOptions::Read(OptionsReader& reader) {
   reader.Read("learning_rate", &learning_rate);
+  reader.Read("texture_learning_rate", &texture_learning_rate);
   reader.Read("beta1", &beta1);
   reader.Read("beta2", &beta2);
   reader.ReadRange("batch_size", &batch_size, 1, 1024);
@@ -107,6 +118,8 @@ void TrainOptions::Read(OptionsReader& reader) {
 
 void TrainOptions::Check() const {
   RELIT_REQUIRE(learning_rate > 0 && learning_rate < 1, "learning_rate must be in (0, 1), got ", learning_rate);
+  RELIT_REQUIRE(texture_learning_rate >= 0 && texture_learning_rate < 1,
+                "texture_learning_rate must be in [0, 1) (0 = learning_rate), got ", texture_learning_rate);
   RELIT_REQUIRE(beta1 >= 0 && beta1 < 1 && beta2 >= 0 && beta2 < 1, "Adam beta1/beta2 must be in [0, 1)");
   RELIT_REQUIRE(batch_size >= 1, "batch_size must be >= 1, got ", batch_size);
   RELIT_REQUIRE(crop_px == 0 || (crop_px >= 8 && crop_px % 4 == 0),
@@ -116,7 +129,7 @@ void TrainOptions::Check() const {
 }
 
 nlohmann::json TrainOptions::ToJson() const {
-  return {{"learning_rate", learning_rate}, {"beta1", beta1}, {"beta2", beta2},
+  return {{"learning_rate", learning_rate}, {"texture_learning_rate", texture_learning_rate}, {"beta1", beta1}, {"beta2", beta2},
           {"batch_size", batch_size}, {"crop_px", crop_px}, {"mask_loss_weight", mask_loss_weight},
           {"seed", seed}, {"threads", threads}};
 }
@@ -216,9 +229,21 @@ Trainer::Trainer(const ModelOptions& model_options, const TrainOptions& train_op
   ConfigureTorch(train_options_.threads, ResolveDevice(model_options.device));
   torch::manual_seed(train_options_.seed);
   model_ = DnlModel(model_options);
+  // Two parameter groups: the neural texture may learn faster than the
+  // networks (each texel sees few pixels per step).
+  std::vector<torch::Tensor> networks;
+  for (const auto& p : model_->renderer()->parameters()) networks.push_back(p);
+  for (const auto& p : model_->mask_net()->parameters()) networks.push_back(p);
+  const double texture_lr =
+      train_options_.texture_learning_rate > 0 ? train_options_.texture_learning_rate : train_options_.learning_rate;
+  const auto betas = std::make_tuple(train_options_.beta1, train_options_.beta2);
+  std::vector<torch::optim::OptimizerParamGroup> groups;
+  groups.emplace_back(std::vector<torch::Tensor>{model_->texture()->texels()},
+                      std::make_unique<torch::optim::AdamOptions>(torch::optim::AdamOptions(texture_lr).betas(betas)));
+  groups.emplace_back(networks, std::make_unique<torch::optim::AdamOptions>(
+                                    torch::optim::AdamOptions(train_options_.learning_rate).betas(betas)));
   optimizer_ = std::make_unique<torch::optim::Adam>(
-      model_->parameters(), torch::optim::AdamOptions(train_options_.learning_rate)
-                                .betas({train_options_.beta1, train_options_.beta2}));
+      std::move(groups), torch::optim::AdamOptions(train_options_.learning_rate).betas(betas));
 }
 
 Losses Trainer::Step(const Batch& batch) {

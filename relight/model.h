@@ -41,6 +41,13 @@ struct ModelOptions {
   int mask_ngf = 16;                // mask network: half the renderer's channels
   int mask_n_blocks = 3;
   std::string upsampling = "transposed";  // "transposed" | "resize_conv"
+  std::string norm = "instance";          // "instance" | "none" (both networks)
+  // The renderer's last conv also sees its input (full-resolution skip).
+  // Not in DNL; +5 dB held-out at 300 steps (docs/relight.md, "Learning check").
+  bool input_skip = true;
+  // Texels start uniform in [1 - spread, 1 + spread]: texture x cue starts as
+  // the cue itself, give or take the spread (noise the network must undo).
+  double texture_init_spread = 0.5;
   // M of the log encoding, the scene's maximum radiance. 0 = not set yet:
   // whoever builds the model from data must set it (DnlModel requires > 0).
   double max_radiance = 0.0;
@@ -57,6 +64,10 @@ struct ModelOptions {
 
 struct TrainOptions {
   double learning_rate = 2e-4;  // Adam, as in DNL
+  // The neural texture's Adam rate: each texel sees few pixels per step, so
+  // it must move faster than the networks (measured, docs/relight.md).
+  // 0 = learning_rate.
+  double texture_learning_rate = 2e-2;
   double beta1 = 0.9;
   double beta2 = 0.999;
   int batch_size = 1;           // frames per step (the data loader's business)

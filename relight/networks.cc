@@ -9,9 +9,13 @@ namespace {
 
 namespace nn = torch::nn;
 
-nn::InstanceNorm2d Norm(int channels) {
+torch::nn::AnyModule Norm(const std::string& norm, int channels) {
   // CycleGAN's default: no affine parameters, no running statistics.
-  return nn::InstanceNorm2d(nn::InstanceNorm2dOptions(channels).affine(false).track_running_stats(false));
+  if (norm == "instance") {
+    return torch::nn::AnyModule(
+        nn::InstanceNorm2d(nn::InstanceNorm2dOptions(channels).affine(false).track_running_stats(false)));
+  }
+  return torch::nn::AnyModule(nn::Identity());
 }
 
 nn::Conv2d Conv(int in, int out, int kernel, int stride = 1, int padding = 0) {
@@ -26,17 +30,24 @@ void GeneratorOptions::Check() const {
   RELIT_REQUIRE(n_blocks >= 0 && n_blocks <= 64, "generator n_blocks must be in [0, 64], got ", n_blocks);
   RELIT_REQUIRE(upsampling == "transposed" || upsampling == "resize_conv",
                 "generator upsampling must be transposed or resize_conv, got '", upsampling, "'");
+  RELIT_REQUIRE(norm == "instance" || norm == "none", "generator norm must be instance or none, got '", norm, "'");
 }
 
 nlohmann::json GeneratorOptions::ToJson() const {
   return {{"input_channels", input_channels}, {"output_channels", output_channels}, {"ngf", ngf},
-          {"n_blocks", n_blocks}, {"upsampling", upsampling}, {"output_tanh", output_tanh}};
+          {"n_blocks", n_blocks}, {"upsampling", upsampling}, {"norm", norm}, {"input_skip", input_skip}, {"output_tanh", output_tanh}};
 }
 
-ResnetBlockImpl::ResnetBlockImpl(int channels) {
-  body_ = register_module("body", nn::Sequential(nn::ReflectionPad2d(1), Conv(channels, channels, 3),
-                                                 Norm(channels), nn::ReLU(), nn::ReflectionPad2d(1),
-                                                 Conv(channels, channels, 3), Norm(channels)));
+ResnetBlockImpl::ResnetBlockImpl(int channels, const std::string& norm) {
+  nn::Sequential body;
+  body->push_back(nn::ReflectionPad2d(1));
+  body->push_back(Conv(channels, channels, 3));
+  body->push_back(Norm(norm, channels));
+  body->push_back(nn::ReLU());
+  body->push_back(nn::ReflectionPad2d(1));
+  body->push_back(Conv(channels, channels, 3));
+  body->push_back(Norm(norm, channels));
+  body_ = register_module("body", body);
 }
 
 torch::Tensor ResnetBlockImpl::forward(const torch::Tensor& x) { return x + body_->forward(x); }
@@ -47,16 +58,16 @@ ResnetGeneratorImpl::ResnetGeneratorImpl(const GeneratorOptions& options) : opti
   nn::Sequential model;
   model->push_back(nn::ReflectionPad2d(3));
   model->push_back(Conv(options_.input_channels, ngf, 7));
-  model->push_back(Norm(ngf));
+  model->push_back(Norm(options_.norm, ngf));
   model->push_back(nn::ReLU());
   int channels = ngf;
   for (int i = 0; i < kDownsamplings; ++i) {
     model->push_back(Conv(channels, channels * 2, 3, 2, 1));
-    model->push_back(Norm(channels * 2));
+    model->push_back(Norm(options_.norm, channels * 2));
     model->push_back(nn::ReLU());
     channels *= 2;
   }
-  for (int i = 0; i < options_.n_blocks; ++i) model->push_back(ResnetBlock(channels));
+  for (int i = 0; i < options_.n_blocks; ++i) model->push_back(ResnetBlock(channels, options_.norm));
   for (int i = 0; i < kDownsamplings; ++i) {
     if (options_.upsampling == "transposed") {
       model->push_back(nn::ConvTranspose2d(
@@ -69,14 +80,16 @@ ResnetGeneratorImpl::ResnetGeneratorImpl(const GeneratorOptions& options) : opti
       model->push_back(nn::ReflectionPad2d(1));
       model->push_back(Conv(channels, channels / 2, 3));
     }
-    model->push_back(Norm(channels / 2));
+    model->push_back(Norm(options_.norm, channels / 2));
     model->push_back(nn::ReLU());
     channels /= 2;
   }
-  model->push_back(nn::ReflectionPad2d(3));
-  model->push_back(Conv(channels, options_.output_channels, 7));
-  if (options_.output_tanh) model->push_back(nn::Tanh());
   model_ = register_module("model", model);
+  nn::Sequential head;
+  head->push_back(nn::ReflectionPad2d(3));
+  head->push_back(Conv(channels + (options_.input_skip ? options_.input_channels : 0), options_.output_channels, 7));
+  if (options_.output_tanh) head->push_back(nn::Tanh());
+  head_ = register_module("head", head);
 
   // pix2pix initialisation: N(0, 0.02) weights, zero biases.
   torch::NoGradGuard no_grad;
@@ -99,7 +112,8 @@ torch::Tensor ResnetGeneratorImpl::forward(const torch::Tensor& x) {
                     x.size(3) >= 2 * factor,
                 "generator: image size ", x.size(3), " x ", x.size(2), " must be a multiple of ", factor,
                 " and at least ", 2 * factor, " (crop or pad the input)");
-  return model_->forward(x);
+  const auto features = model_->forward(x);
+  return head_->forward(options_.input_skip ? torch::cat({features, x}, 1) : features);
 }
 
 torch::Tensor BuildNetworkInput(const torch::Tensor& sampled_texture, const torch::Tensor& cues,

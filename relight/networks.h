@@ -6,6 +6,11 @@
 //   n_blocks x [pad 1, 3x3 conv, IN, ReLU, pad 1, 3x3 conv, IN] + skip
 //   2 x [transposed 3x3 conv stride 2 (or nearest x2 + 3x3 conv), IN, ReLU]
 //   reflection pad 3, 7x7 conv (out), optional tanh
+// and, with `input_skip`, that last 7x7 conv reads the generator's input
+// concatenated to the up-sampled features: per-pixel detail of the input
+// (texture x cues) reaches the output without passing the 1/4-resolution
+// bottleneck. DNL has no such skip; on CPU budgets it is worth ~5 dB
+// (docs/relight.md, "Learning check").
 // with instance norm (no affine, no running statistics) throughout, weights
 // N(0, 0.02) as in pix2pix. Fully convolutional: any H, W that are multiples
 // of 4 (and >= 8) work, so training on random crops is fine.
@@ -29,6 +34,10 @@ struct GeneratorOptions {
   int ngf = 32;                           // channels after the first conv
   int n_blocks = 6;                       // residual blocks at 1/4 resolution
   std::string upsampling = "transposed";  // "transposed" | "resize_conv"
+  std::string norm = "instance";          // "instance" | "none"
+  // The last 7x7 conv also sees the full-resolution input (a U-Net-like skip
+  // over the down/up-sampling), so per-pixel detail need not be relearnt.
+  bool input_skip = false;
   bool output_tanh = true;
 
   void Check() const;
@@ -37,7 +46,7 @@ struct GeneratorOptions {
 
 class ResnetBlockImpl : public torch::nn::Module {
  public:
-  explicit ResnetBlockImpl(int channels);
+  ResnetBlockImpl(int channels, const std::string& norm);
   torch::Tensor forward(const torch::Tensor& x);
 
  private:
@@ -58,7 +67,8 @@ class ResnetGeneratorImpl : public torch::nn::Module {
 
  private:
   GeneratorOptions options_;
-  torch::nn::Sequential model_;
+  torch::nn::Sequential model_;  // up to the last up-sampling stage
+  torch::nn::Sequential head_;   // pad, 7x7 conv, tanh
 };
 TORCH_MODULE(ResnetGenerator);
 

@@ -9,6 +9,7 @@
 #include "core/run_record.h"
 #include "relight/asset.h"
 #include "relight/cue_stage.h"
+#include "relight/interop.h"
 #include "relight/plan.h"
 #include "relight/relight_options.h"
 #include "relight/render_stage.h"
@@ -84,6 +85,21 @@ int RunRelight(int argc, char** argv) {
   CLI::App* export_asset = app.add_subcommand("export", "write the self-contained relightable asset folder");
   for (CLI::App* sub : {cues, plan, train, render, export_asset}) common(sub);
   export_asset->add_option("--out", out, "asset folder (default W/relight/export)");
+  InteropOptions interop;
+  bool no_interop = false;
+  export_asset->add_flag("--no-interop", no_interop, "skip the interop exports (OUT/interop: COLMAP, NeRF, glTF)");
+  export_asset->add_option("--bake-views", interop.bake_views, "glTF preview bake: renders around the object")
+      ->capture_default_str();
+  export_asset->add_option("--bake-texture-px", interop.bake_texture_px, "glTF preview texture size (power of two)")
+      ->capture_default_str();
+  export_asset->add_option("--bake-width-px", interop.bake_width_px,
+                           "bake render width (multiple of 4; 0 = the training size)")
+      ->capture_default_str();
+  export_asset->add_option("--bake-samples-per-pixel", interop.bake_samples_per_pixel,
+                           "cue paths per bake pixel (0 = as the cues)")
+      ->capture_default_str();
+  export_asset->add_option("--bake-exposure", interop.bake_exposure, "linear scale before the texture's sRGB encoding")
+      ->capture_default_str();
   train->add_option("--partition", partition, "partition index K (see plan.json)")->required();
   train->add_flag("--restart", restart, "discard the checkpoint and start over");
   render->add_option("--views", views, "JSON file of cameras and lights to render (docs/relight.md)")
@@ -129,7 +145,13 @@ int RunRelight(int argc, char** argv) {
   }
   if (export_asset->parsed()) {
     LogFile log(relight_dir / "logs" / "export.log", level);
-    ExportAsset(workspace, out.empty() ? (relight_dir / "export").string() : out, record);
+    const std::string asset_dir = out.empty() ? (relight_dir / "export").string() : out;
+    ExportAsset(workspace, asset_dir, record);
+    interop.enabled = !no_interop;
+    if (interop.enabled) {
+      ExportInterop(workspace, (fs::path(asset_dir) / "interop").string(), interop, record);
+      record.Write((fs::path(asset_dir) / "export.json").string());  // now with what interop/ holds
+    }
   }
   return 0;
 }

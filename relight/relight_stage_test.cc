@@ -50,8 +50,7 @@ TrainStageOptions SmallTraining(int steps) {
   t.checkpoint_every = 100;
   t.validate_every = 0;
   t.log_every = 10;
-  t.optimizer.crop_px = 64;
-  t.optimizer.learning_rate = 2e-3;  // small model, short run
+  t.optimizer.crop_px = 96;  // Adam rates: the defaults (networks 2e-4 as DNL, texture 2e-2)
   t.optimizer.seed = 5;
   t.optimizer.threads = 2;
   return t;
@@ -106,13 +105,13 @@ TEST_F(RelightStageTest, CuesAndPlanDescribeEveryFrame) {
   EXPECT_GT(plan.max_radiance, 0.0);
 }
 
-// Learning on real cue frames: after a short training run the held-out
-// frames are far better than the untrained model's, and the mask matches the
-// mattes. The cues-only baseline (per-texel least squares) is measured and
-// printed next to it; at this test budget (300 steps, ~1.5 min) the network
-// does not reach it yet (docs/relight.md, "Learning check"), so that
-// comparison is reported, not asserted.
-TEST_F(RelightStageTest, TrainingImprovesHeldOutFramesAndIsComparedWithCuesOnlyBaseline) {
+// Learning on real cue frames: after a short training run (300 steps) the
+// held-out frames beat the cues-only baseline (per-texel least squares of the
+// 5 cues, fitted on the same training frames) and the untrained model, and
+// the mask matches the mattes. Measured 15.69 dB vs 14.25 dB (15.87 with
+// another seed; docs/relight.md, "Learning check"): asserted with half that
+// margin.
+TEST_F(RelightStageTest, TrainedModelBeatsCuesOnlyBaselineOnHeldOutFrames) {
   const auto start = std::chrono::steady_clock::now();
   RunRecord record("test");
   const TrainStageOptions training = SmallTraining(300);
@@ -148,8 +147,10 @@ TEST_F(RelightStageTest, TrainingImprovesHeldOutFramesAndIsComparedWithCuesOnlyB
   std::printf("held-out PSNR: trained %.2f dB (MAE %.4f, alpha MAE %.4f), untrained %.2f dB (alpha MAE %.4f), "
               "cues-only baseline %.2f dB (MAE %.4f)\n",
               ours.psnr_db, ours.mae, ours.alpha_mae, before.psnr_db, before.alpha_mae, theirs.psnr_db, theirs.mae);
+  EXPECT_GT(ours.psnr_db, theirs.psnr_db + 0.7);
+  EXPECT_LT(ours.mae, theirs.mae);
   EXPECT_GT(ours.psnr_db, before.psnr_db + 3.0);
-  EXPECT_LT(ours.alpha_mae, 0.02);
+  EXPECT_LT(ours.alpha_mae, 0.03);  // measured 0.014-0.018
   EXPECT_LT(ours.alpha_mae, 0.2 * before.alpha_mae);
   EXPECT_NEAR(result.val_psnr_db, ours.psnr_db, 3.0);  // the stage's own validation agrees (subset of frames)
 }
