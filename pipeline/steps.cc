@@ -183,7 +183,8 @@ StepGraph::StepGraph(const PipelineConfig& config, const std::string& workspace,
   Add(relight_step("cues", {"calib", "reconstruct"}, {"cues"}, "relight/cues"));
   Add(relight_step("plan", {"calib", "reconstruct"}, {"dataset", "partitions"}, "relight/plan"));
   Add(relight_step("render", {"calib", "reconstruct", "plan"}, {"render"}, "relight/render"));
-  if (with_export) Add(relight_step("export", {"reconstruct", "plan"}, {}, "relight/export"));
+  // Export also writes the interop views of the calibrated cameras.
+  if (with_export) Add(relight_step("export", {"calib", "reconstruct", "plan"}, {"export"}, "relight/export"));
   {
     Step s = MakeStep("report", "report");
     for (const Step& other : steps_) s.deps.push_back(other.name);

@@ -26,7 +26,8 @@ void RelightOptions::Read(OptionsReader& reader) {
            {"partitions", [&](OptionsReader& r) { partitions.Read(r); }},
            {"model", [&](OptionsReader& r) { model.Read(r); }},
            {"train", [&](OptionsReader& r) { train.Read(r); }},
-           {"render", [&](OptionsReader& r) { render.Read(r); }}}) {
+           {"render", [&](OptionsReader& r) { render.Read(r); }},
+           {"export", [&](OptionsReader& r) { exports.Read(r); }}}) {
     OptionsReader child = reader.Child(key);
     read(child);
   }
@@ -43,12 +44,14 @@ void RelightOptions::Check() const {
   model.Check();
   train.Check();
   render.Check();
+  exports.Check();
 }
 
 nlohmann::json RelightOptions::ToJson() const {
   return {{"workspace", workspace},          {"cues", cues.ToJson()},   {"dataset", dataset.ToJson()},
           {"partitions", partitions.ToJson()}, {"model", model.ToJson()}, {"train", train.ToJson()},
-          {"render", render.ToJson()},        {"log_level", log_level}};
+          {"render", render.ToJson()},        {"export", exports.ToJson()},
+          {"log_level", log_level}};
 }
 
 namespace {
@@ -116,6 +119,16 @@ int RunRelight(int argc, char** argv) {
     options.Read(reader);
   }
   options.workspace = workspace;
+  // Export flags given on the command line win over the config's `export:`.
+  for (const auto& [flag, apply] : std::initializer_list<std::pair<const char*, std::function<void()>>>{
+           {"--no-interop", [&] { options.exports.enabled = !no_interop; }},
+           {"--bake-views", [&] { options.exports.bake_views = interop.bake_views; }},
+           {"--bake-texture-px", [&] { options.exports.bake_texture_px = interop.bake_texture_px; }},
+           {"--bake-width-px", [&] { options.exports.bake_width_px = interop.bake_width_px; }},
+           {"--bake-samples-per-pixel", [&] { options.exports.bake_samples_per_pixel = interop.bake_samples_per_pixel; }},
+           {"--bake-exposure", [&] { options.exports.bake_exposure = interop.bake_exposure; }}}) {
+    if (export_asset->count(flag) > 0) apply();
+  }
   if (!log_level.empty()) options.log_level = log_level;
   const spdlog::level::level_enum level = ParseLogLevel(options.log_level);
   SetVerbosity(level);
@@ -147,9 +160,8 @@ int RunRelight(int argc, char** argv) {
     LogFile log(relight_dir / "logs" / "export.log", level);
     const std::string asset_dir = out.empty() ? (relight_dir / "export").string() : out;
     ExportAsset(workspace, asset_dir, record);
-    interop.enabled = !no_interop;
-    if (interop.enabled) {
-      ExportInterop(workspace, (fs::path(asset_dir) / "interop").string(), interop, record);
+    if (options.exports.enabled) {
+      ExportInterop(workspace, (fs::path(asset_dir) / "interop").string(), options.exports, record);
       record.Write((fs::path(asset_dir) / "export.json").string());  // now with what interop/ holds
     }
   }

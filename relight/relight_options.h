@@ -1,12 +1,13 @@
 // The `relight:` section of pipeline.yaml (the file `relit-relight --config`
 // reads). Top-level keys: cues, dataset, partitions, model, train, render,
-// log_level. Unknown keys are errors. docs/relight.md explains every key.
+// export, log_level. Unknown keys are errors. docs/relight.md explains every key.
 #pragma once
 
 #include <string>
 
 #include <nlohmann/json.hpp>
 
+#include "relight/interop.h"
 #include "relight/model.h"
 #include "relight/partitions.h"
 #include "relight/stage_options.h"
@@ -22,6 +23,7 @@ struct RelightOptions {
   ModelOptions model;
   TrainStageOptions train;
   RenderStageOptions render;
+  InteropOptions exports;  // key `export`: the interop exports next to the asset
   std::string log_level = "info";
 
   void Read(OptionsReader& reader);
