@@ -82,10 +82,34 @@ std::string FindExecutable(const std::string& name) {
   return "";
 }
 
+namespace {
+std::vector<std::string> Tokens(const std::vector<CowMaterial>& materials) {
+  std::vector<std::string> tokens;
+  for (CowMaterial m : materials) tokens.push_back(MaterialName(m));
+  return tokens;
+}
+}  // namespace
+
+std::string DiffuseToken(const std::string& name, double albedo) { return name + "=diffuse:" + Number(albedo); }
+
+std::string GlossyToken(const std::string& name, double albedo, double ggx_alpha) {
+  return name + "=glossy:" + Number(albedo) + ":" + Number(ggx_alpha);
+}
+
 std::string CyclesCommand(const BenchSceneSpec& spec, const CyclesOptions& options,
                           const std::vector<CowMaterial>& materials) {
+  return CyclesCommand(spec, options, Tokens(materials));
+}
+
+CyclesResult RunCycles(const BenchSceneSpec& spec, const CyclesOptions& options,
+                       const std::vector<CowMaterial>& materials) {
+  return RunCycles(spec, options, Tokens(materials));
+}
+
+std::string CyclesCommand(const BenchSceneSpec& spec, const CyclesOptions& options,
+                          const std::vector<std::string>& materials) {
   std::string names;
-  for (CowMaterial m : materials) names += std::string(names.empty() ? "" : ",") + MaterialName(m);
+  for (const std::string& m : materials) names += std::string(names.empty() ? "" : ",") + m;
   std::string matrix;
   const Eigen::Matrix4f m = spec.cow_world_from_object.matrix();
   for (int r = 0; r < 4; ++r) {
@@ -95,7 +119,7 @@ std::string CyclesCommand(const BenchSceneSpec& spec, const CyclesOptions& optio
   cmd << ShellQuote(options.blender) << " -b --factory-startup -noaudio --python-exit-code 1 --python "
       << ShellQuote(options.script) << " --"
       << " --mesh " << ShellQuote(spec.mesh_path) << " --output-dir " << ShellQuote(options.output_dir)
-      << " --materials " << names << " --width " << spec.width << " --height " << spec.height
+      << " --materials " << ShellQuote(names) << " --width " << spec.width << " --height " << spec.height
       << " --spp " << options.samples_per_pixel << " --max-bounces " << options.max_depth - 1
       << " --threads " << options.threads << " --repeats " << options.repeats
       << " --seed " << options.seed << " --object-matrix " << matrix
@@ -111,7 +135,7 @@ std::string CyclesCommand(const BenchSceneSpec& spec, const CyclesOptions& optio
 }
 
 CyclesResult RunCycles(const BenchSceneSpec& spec, const CyclesOptions& options,
-                       const std::vector<CowMaterial>& materials) {
+                       const std::vector<std::string>& materials) {
   CyclesResult result;
   const std::string blender = FindExecutable(options.blender);
   if (blender.empty()) {

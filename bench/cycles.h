@@ -49,6 +49,16 @@ std::string CyclesCommand(const BenchSceneSpec& spec, const CyclesOptions& optio
 CyclesResult RunCycles(const BenchSceneSpec& spec, const CyclesOptions& options,
                        const std::vector<CowMaterial>& materials);
 
+// The same with cycles_scene.py material tokens: "lambert", "ggx",
+// "NAME=diffuse:ALBEDO" or "NAME=glossy:ALBEDO:ALPHA" (ALPHA = GGX alpha;
+// the script sets Cycles' roughness to sqrt(ALPHA)). Renders are named NAME.
+std::string CyclesCommand(const BenchSceneSpec& spec, const CyclesOptions& options,
+                          const std::vector<std::string>& material_tokens);
+CyclesResult RunCycles(const BenchSceneSpec& spec, const CyclesOptions& options,
+                       const std::vector<std::string>& material_tokens);
+std::string DiffuseToken(const std::string& name, double albedo);
+std::string GlossyToken(const std::string& name, double albedo, double ggx_alpha);
+
 struct ImageComparison {
   int pixels = 0;                    // object pixels compared
   double mean_relative_difference = 0;  // mean of 2|a-b|/(a+b) on luminance

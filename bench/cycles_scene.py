@@ -21,6 +21,12 @@ line so the C++ side stays the single source of truth. Conventions:
   GGX distribution; Cycles squares the roughness (alpha = r^2), so
   r = sqrt(relit alpha). relit's GGX variant uses Fresnel f0 = 1 to match
   the Fresnel-free Glossy BSDF.
+* Generic materials (the radiance-cue benchmark, relit-bench-cues):
+  --materials also takes tokens NAME=diffuse:ALBEDO and
+  NAME=glossy:ALBEDO:ALPHA (ALPHA = relit's GGX alpha; the script sets the
+  Glossy BSDF roughness to sqrt(ALPHA)), rendered to cycles_NAME.exr.
+  --ground-half-size 0 leaves the ground out (the cue scene is the object
+  alone, as relit's cue stage renders the proxy alone).
 * Bounces: relit max_depth counts path vertices that get direct lighting
   (1 = direct only); Cycles max_bounces = 0 is direct only, so the caller
   passes max_depth - 1.
@@ -60,7 +66,7 @@ def parse_args():
     p.add_argument("--hfov-deg", type=float, required=True)
     p.add_argument("--light-position", type=float, nargs=3, required=True)
     p.add_argument("--light-intensity", type=float, required=True, help="W/sr")
-    p.add_argument("--ground-half-size", type=float, required=True)
+    p.add_argument("--ground-half-size", type=float, required=True, help="0 = no ground")
     p.add_argument("--ground-albedo", type=float, required=True)
     p.add_argument("--lambert-albedo", type=float, required=True)
     p.add_argument("--ggx-albedo", type=float, required=True)
@@ -168,6 +174,7 @@ def configure_render(scene, args):
     cycles.transparent_max_bounces = 0
     cycles.min_light_bounces = 0
     cycles.blur_glossy = 0.0
+    cycles.light_sampling_threshold = 0.0  # no probabilistic skipping of dim light samples
     cycles.sample_clamp_direct = 0.0
     cycles.sample_clamp_indirect = 0.0
     cycles.caustics_reflective = True
@@ -198,6 +205,22 @@ def configure_render(scene, args):
     scene.world = world
 
 
+def parse_material(token, predefined):
+    """Returns (name, factory) for "lambert", "ggx", "NAME=diffuse:ALBEDO" or
+    "NAME=glossy:ALBEDO:ALPHA" (ALPHA: GGX alpha; Cycles roughness = sqrt)."""
+    if "=" not in token:
+        if token not in predefined:
+            raise ValueError("unknown material %r (lambert, ggx, NAME=diffuse:A, NAME=glossy:A:ALPHA)" % token)
+        return token, predefined[token]
+    name, spec = token.split("=", 1)
+    fields = spec.split(":")
+    if fields[0] == "diffuse" and len(fields) == 2:
+        return name, lambda: node_material(name, "diffuse", float(fields[1]))
+    if fields[0] == "glossy" and len(fields) == 3:
+        return name, lambda: node_material(name, "glossy", float(fields[1]), math.sqrt(float(fields[2])))
+    raise ValueError("bad material token %r" % token)
+
+
 def main():
     args = parse_args()
     os.makedirs(args.output_dir, exist_ok=True)
@@ -205,7 +228,8 @@ def main():
     scene = bpy.context.scene
     configure_render(scene, args)
     cow = import_mesh(os.path.abspath(args.mesh), args.object_matrix)
-    add_ground(args.ground_half_size, node_material("ground", "diffuse", args.ground_albedo))
+    if args.ground_half_size > 0:
+        add_ground(args.ground_half_size, node_material("ground", "diffuse", args.ground_albedo))
     add_camera(scene, args.camera_eye, args.camera_target, args.hfov_deg)
     add_point_light(scene, args.light_position, args.light_intensity)
 
@@ -213,11 +237,10 @@ def main():
         "lambert": lambda: node_material("lambert", "diffuse", args.lambert_albedo),
         "ggx": lambda: node_material("ggx", "glossy", args.ggx_albedo, math.sqrt(args.ggx_alpha)),
     }
-    for name in [m for m in args.materials.split(",") if m]:
-        if name not in materials:
-            raise ValueError("unknown material %r (lambert, ggx)" % name)
+    for token in [m for m in args.materials.split(",") if m]:
+        name, make = parse_material(token, materials)
         cow.data.materials.clear()
-        cow.data.materials.append(materials[name]())
+        cow.data.materials.append(make())
         output = os.path.abspath(os.path.join(args.output_dir, "cycles_%s.exr" % name))
         scene.render.filepath = output
         best = best_cpu = None

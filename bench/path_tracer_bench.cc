@@ -7,9 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <ctime>
 #include <filesystem>
-#include <fstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -18,6 +16,7 @@
 #include <tbb/global_control.h>
 
 #include "bench/bench_scene.h"
+#include "bench/bench_util.h"
 #include "bench/cycles.h"
 #include "bench/raw_embree.h"
 #include "core/error.h"
@@ -98,16 +97,6 @@ SceneResult RunRelit(const Options& o, const BenchSceneSpec& spec, const render:
   r.noise_cow = CompareOnObject(rendered.radiance, other.radiance, rendered.object_id, kCowObjectId);
   WriteImage(o.output_dir + "/relit_" + MaterialName(material) + ".exr", rendered.radiance, PixelStorage::kFloat);
   return r;
-}
-
-// "1.23 0.98 0.77" from /proc/loadavg: timings on a busy machine are not comparable.
-std::string LoadAverage() {
-  std::ifstream file("/proc/loadavg");
-  double a = 0, b = 0, c = 0;
-  if (!(file >> a >> b >> c)) return "unknown";
-  char text[64];
-  std::snprintf(text, sizeof(text), "%.2f %.2f %.2f", a, b, c);
-  return text;
 }
 
 double Mrays(double rays, double seconds) { return seconds > 0 ? rays / seconds * 1e-6 : 0; }
@@ -199,10 +188,7 @@ int Run(int argc, char** argv) {
   spec.width = o.width;
   spec.height = o.height;
   const render::TriangleMesh cow = LoadBenchMesh(&spec);
-  char date[32];
-  const std::time_t now = std::time(nullptr);
-  std::strftime(date, sizeof(date), "%Y-%m-%d", std::localtime(&now));
-  std::printf("relit path tracer benchmark, %s, load average %s\n", date, LoadAverage().c_str());
+  std::printf("relit path tracer benchmark, %s, load average %s\n", Today().c_str(), LoadAverage().c_str());
   std::printf("scene: %s (%zu triangles) + ground quad, 1 point light, %dx%d, %d spp, max depth %d, %d threads\n",
               spec.mesh_path.c_str(), cow.triangles.size(), o.width, o.height, o.spp, o.max_depth, o.threads);
   std::fflush(stdout);

@@ -4,22 +4,14 @@
 #pragma once
 
 #include <cstdint>
-#include <ctime>
 #include <memory>
 #include <vector>
 
 #include "bench/bench_scene.h"
+#include "bench/bench_util.h"
 #include "core/render/scene.h"
 
 namespace relit::bench {
-
-// CPU time of the whole process (all threads), seconds. On a shared machine
-// it is less sensitive than wall time to other processes competing for cores.
-inline double ProcessCpuSeconds() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
 
 struct RawTraceResult {
   double seconds = 0;     // best wall time of the repeats
