@@ -2,12 +2,18 @@
 // load average and peak resident memory (Linux /proc).
 #pragma once
 
+#include <chrono>
 #include <cstdio>
 #include <ctime>
 #include <fstream>
 #include <string>
 
 namespace relit::bench {
+
+// Wall-clock seconds since `start`.
+inline double Seconds(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
 
 // CPU time of the whole process (all threads), seconds. On a shared machine
 // it is less sensitive than wall time to other processes competing for cores.

@@ -42,10 +42,6 @@ struct Options {
   std::string output_dir = "bench-out/cues";
 };
 
-double Seconds(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 // One cue basis as a cycles_scene.py material token: Diffuse BSDF for the
 // Lambert cue, Glossy BSDF (GGX, roughness sqrt(alpha)) for the GGX cues.
 std::string BasisToken(int index, const render::CueBasis& basis) {

@@ -40,10 +40,6 @@ struct Options {
   std::string output_dir = "bench-out";
 };
 
-double Seconds(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 struct SceneResult {
   CowMaterial material = CowMaterial::kLambert;
   double build_seconds = 0;   // scene construction + Embree BVH build

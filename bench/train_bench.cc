@@ -59,10 +59,6 @@ struct Options {
   std::string probe;  // internal: "NGF,BLOCKS,CROP" or "loop"
 };
 
-double Seconds(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 // A small workspace as the stage test uses: ground-truth calib/reconstruct,
 // then the real cue and plan stages (one partition).
 void PrepareWorkspace(const Options& o) {
