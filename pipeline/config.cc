@@ -55,10 +55,10 @@ void SlurmOptions::Read(OptionsReader& r) {
   ReadStringVector(r, "steps", &steps);
   for (const std::string& kind : steps) {
     RELIT_REQUIRE(kind == "capture" || kind == "calib" || kind == "reconstruct" || kind == "cues" ||
-                      kind == "plan" || kind == "train" || kind == "render" || kind == "export" ||
-                      kind == "report",
+                      kind == "plan" || kind == "train" || kind == "augment" || kind == "render" ||
+                      kind == "export" || kind == "eval" || kind == "report",
                   r.Where("steps"), ": unknown step kind '", kind,
-                  "' (capture, calib, reconstruct, cues, plan, train, render, export, report)");
+                  "' (capture, calib, reconstruct, cues, plan, train, augment, render, export, eval, report)");
   }
   r.ReadRange("poll_s", &poll_s, 0.05, 3600.0);
   r.Read("sbatch", &sbatch);
@@ -69,8 +69,8 @@ void SlurmOptions::Read(OptionsReader& r) {
   OptionsReader resources = r.Child("resources");
   defaults.Read(resources);
   // Per-kind resources start from the defaults and override some keys.
-  for (const char* kind : {"capture", "calib", "reconstruct", "cues", "plan", "train", "render",
-                           "export", "report"}) {
+  for (const char* kind : {"capture", "calib", "reconstruct", "cues", "plan", "train", "augment", "render",
+                           "export", "eval", "report"}) {
     if (!r.Has(kind)) {
       r.Ignore(kind);
       continue;
@@ -128,13 +128,14 @@ PipelineConfig PipelineConfig::FromString(const std::string& text, const std::st
   inputs.Read("board_view_images", &config.board_view_images);
   inputs.Read("board_light_images", &config.board_light_images);
   inputs.Read("proxy_mesh", &config.proxy_mesh);
+  inputs.Read("truth", &config.truth);
   inputs.Finish();
   RELIT_REQUIRE(!config.view.empty(), inputs.Where("view"),
                 ": inputs.view is required (phone V video, filmed without flash)");
   RELIT_REQUIRE(!config.light.empty(), inputs.Where("light"),
                 ": inputs.light is required (phone L video, filmed with the flash on)");
   for (std::string* p : {&config.view, &config.light, &config.geometry, &config.board_view_images,
-                         &config.board_light_images, &config.proxy_mesh}) {
+                         &config.board_light_images, &config.proxy_mesh, &config.truth}) {
     *p = Resolve(base_dir, *p);
   }
 

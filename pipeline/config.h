@@ -1,7 +1,8 @@
 // pipeline.yaml: the inputs of a capture, the board, the orchestrator's own
 // settings and one section per stage (docs/pipeline.md documents every key).
 //
-//   inputs:      {view, light, geometry, board_view_images, board_light_images, proxy_mesh}
+//   inputs:      {view, light, geometry, board_view_images, board_light_images, proxy_mesh,
+//                 truth (a synthetic capture's truth.json: adds the eval step)}
 //   board:       the printed ChArUco board (core/board.h), given to calib
 //   tools:       optional paths of the stage executables
 //   run:         {jobs, executor: local | slurm, export: auto | on | off}
@@ -57,7 +58,7 @@ struct PipelineConfig {
   std::string base_dir;  // its folder: relative paths are relative to it
 
   // inputs: (absolute paths; "" = not given)
-  std::string view, light, geometry, board_view_images, board_light_images, proxy_mesh;
+  std::string view, light, geometry, board_view_images, board_light_images, proxy_mesh, truth;
 
   YAML::Node board;                          // board: (checked with ReadBoardSpec)
   std::map<std::string, std::string> tools;  // stage -> executable (absolute)

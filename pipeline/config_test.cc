@@ -166,5 +166,37 @@ TEST(PipelineConfigTest, StepsGetTheirSectionAsConfigAndHashOnlyWhatTheyRead) {
   EXPECT_NE(std::find(render->deps.begin(), render->deps.end(), "train-00"), render->deps.end());
 }
 
+// Augment steps follow every train step (their targets blend all the
+// point-light partitions); eval exists with a ground truth and waits for them.
+TEST(PipelineConfigTest, AugmentAndEvalStepsSitBetweenTrainingAndWhatReadsTheModels) {
+  const PipelineConfig c = PipelineConfig::FromString(
+      "inputs: {view: v.mp4, light: l.mp4, truth: cap/truth.json}\n"
+      "relight: {augment: {steps: 5}, train: {steps: 10}}\n",
+      "/c/pipeline.yaml", "/c");
+  StepGraph graph(c, "/w", true, true);
+  graph.ExpandPartitions({0, 1});
+  const Step* augment = graph.Find("augment-01");
+  ASSERT_NE(augment, nullptr);
+  for (const char* dep : {"train-00", "train-01", "plan", "cues"}) {
+    EXPECT_NE(std::find(augment->deps.begin(), augment->deps.end(), dep), augment->deps.end()) << dep;
+  }
+  EXPECT_EQ(augment->params["relight.augment"]["steps"], "5");
+  EXPECT_FALSE(augment->params.contains("relight.model"));
+  EXPECT_EQ(augment->output, "relight/augment/01");
+  for (const char* reader : {"render", "export", "eval", "report"}) {
+    const Step* s = graph.Find(reader);
+    ASSERT_NE(s, nullptr) << reader;
+    EXPECT_NE(std::find(s->deps.begin(), s->deps.end(), "augment-00"), s->deps.end()) << reader;
+  }
+  const Step* eval = graph.Find("eval");
+  ASSERT_EQ(eval->inputs.size(), 1u);
+  EXPECT_EQ(eval->inputs[0].path, "/c/cap/truth.json");
+  EXPECT_NE(std::find(eval->args.begin(), eval->args.end(), "--truth"), eval->args.end());
+
+  StepGraph without(c, "/w", true, false);
+  without.ExpandPartitions({0});
+  EXPECT_EQ(without.Find("augment-00"), nullptr);
+}
+
 }  // namespace
 }  // namespace relit::pipeline

@@ -113,8 +113,7 @@ std::string Indent(const std::string& text, const std::string& prefix) {
   return result;
 }
 
-bool WithExport(const PipelineConfig& config, const ToolLocator& tools) {
-  if (config.export_mode != "auto") return config.export_mode == "on";
+bool RelightHasSubcommand(const ToolLocator& tools, const std::string& name) {
   const std::string relight = tools.Find("relight");
   if (relight.empty()) return false;
   // `relit-relight export --help` is not a test: CLI11 prints the main help
@@ -131,11 +130,31 @@ bool WithExport(const PipelineConfig& config, const ToolLocator& tools) {
     std::istringstream words(line);
     std::string first;
     if (line.size() > 1 && std::isspace(static_cast<unsigned char>(line[0])) && (words >> first) &&
-        first == "export") {
+        first == name) {
       return true;
     }
   }
   return false;
+}
+
+bool WithExport(const PipelineConfig& config, const ToolLocator& tools) {
+  if (config.export_mode != "auto") return config.export_mode == "on";
+  return RelightHasSubcommand(tools, "export");
+}
+
+bool WithAugment(const PipelineConfig& config, const ToolLocator& tools) {
+  // Looked up by iteration: operator[] on a missing key of a const node throws.
+  auto child = [](const YAML::Node& node, const std::string& key) {
+    if (node.IsMap()) {
+      for (const auto& entry : node) {
+        if (entry.first.as<std::string>() == key) return entry.second;
+      }
+    }
+    return YAML::Node();
+  };
+  const YAML::Node enabled = child(child(config.relight, "augment"), "enabled");
+  if (enabled.IsDefined() && !enabled.IsNull() && !enabled.as<bool>()) return false;
+  return RelightHasSubcommand(tools, "augment");
 }
 
 }  // namespace relit::pipeline

@@ -37,5 +37,10 @@ std::string Indent(const std::string& text, const std::string& prefix);
 // whether `relit-relight export --help` succeeds (the export subcommand is
 // newer than the rest of the relight CLI).
 bool WithExport(const PipelineConfig& config, const ToolLocator& tools);
+// Augment steps: relight.augment.enabled (default true) and a relit-relight
+// that has the augment subcommand.
+bool WithAugment(const PipelineConfig& config, const ToolLocator& tools);
+// Whether `relit-relight --help` lists the subcommand `name`.
+bool RelightHasSubcommand(const ToolLocator& tools, const std::string& name);
 
 }  // namespace relit::pipeline

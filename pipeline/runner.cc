@@ -55,7 +55,7 @@ class Runner {
         lock_(w_),
         hashes_((fs::path(w_) / ".relit" / "hash_cache.json").string()),
         tools_(config.tools, options.self_dir.empty() ? SelfDirectory() : options.self_dir),
-        graph_(config, w_, WithExport(config, tools_)),
+        graph_(config, w_, WithExport(config, tools_), WithAugment(config, tools_)),
         jobs_(options.jobs > 0 ? options.jobs : config.jobs) {
     for (const Step& s : graph_.steps()) states_[s.name] = State::kPending;
     if (config.executor == "slurm") {
@@ -154,7 +154,7 @@ void Runner::MaybeExpand() {
   std::error_code error;
   if (!fs::exists(fs::path(w_) / "relight" / "plan" / "plan.json", error)) {
     for (const Step& s : graph_.steps()) {
-      const bool waits = s.kind == "render" || s.kind == "export" || s.kind == "report";
+      const bool waits = s.kind == "render" || s.kind == "export" || s.kind == "eval" || s.kind == "report";
       if (!waits || states_.at(s.name) != State::kPending) continue;
       if (selection_.Selected(s)) {
         failures_.push_back(s.name + ": no relight plan (" + w_ +
@@ -221,7 +221,8 @@ bool Runner::Schedule(std::map<std::string, std::vector<Job>>* slurm_batches) {
       if (ds == State::kWouldRun) will_run.push_back(d);
     }
     if (!deps_settled) continue;
-    const bool needs_partitions = step.kind == "render" || step.kind == "export" || step.kind == "report";
+    const bool needs_partitions =
+        step.kind == "render" || step.kind == "export" || step.kind == "eval" || step.kind == "report";
     if (deps_failed) {
       state = State::kBlocked;
       changed = true;

@@ -21,16 +21,19 @@ const std::map<std::string, std::vector<std::string>>& KindDeps() {
       {"cues", {"calib", "reconstruct"}},
       {"plan", {"calib", "reconstruct"}},
       {"train", {"calib", "reconstruct", "cues", "plan"}},
-      {"render", {"calib", "reconstruct", "plan", "train"}},
-      {"export", {"reconstruct", "plan", "train"}},
-      {"report", {"capture", "calib", "reconstruct", "cues", "plan", "train", "render", "export"}}};
+      {"augment", {"calib", "reconstruct", "cues", "plan", "train"}},
+      {"render", {"calib", "reconstruct", "plan", "train", "augment"}},
+      {"export", {"reconstruct", "plan", "train", "augment"}},
+      {"eval", {"calib", "reconstruct", "cues", "plan", "train", "augment"}},
+      {"report", {"capture", "calib", "reconstruct", "cues", "plan", "train", "augment", "render", "export", "eval"}}};
   return kDeps;
 }
 
 // The kinds a selector names.
 std::vector<std::string> KindsOf(const std::string& selector) {
-  if (selector == "relight") return {"cues", "plan", "train", "render", "export"};
+  if (selector == "relight") return {"cues", "plan", "train", "augment", "render", "export", "eval"};
   if (selector.rfind("train-", 0) == 0) return {"train"};
+  if (selector.rfind("augment-", 0) == 0) return {"augment"};
   return {selector};
 }
 

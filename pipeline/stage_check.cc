@@ -88,7 +88,7 @@ void CheckStageSections(const PipelineConfig& config, const YAML::Node& root) {
     // The relight contract: the file holds these sections; each sub-step reads
     // all of them.
     OptionsReader section = reader.Child("relight");
-    for (const char* key : {"cues", "dataset", "partitions", "model", "train", "render", "export"}) {
+    for (const char* key : {"cues", "dataset", "partitions", "model", "train", "augment", "render", "export", "eval"}) {
       if (section.Has(key)) {
         section.Child(key);  // must be a mapping; its keys are relit-relight's to check
       } else {
@@ -101,13 +101,13 @@ void CheckStageSections(const PipelineConfig& config, const YAML::Node& root) {
     // relit-relight knows; check the top level by hand.
     const YAML::Node& node = config.relight;
     if (node.IsMap()) {
-      const std::set<std::string> known = {"cues",  "dataset", "partitions", "model",
-                                           "train", "render",  "export",     "log_level"};
+      const std::set<std::string> known = {"cues",   "dataset", "partitions", "model", "train",
+                                           "augment", "render", "export",    "eval",  "log_level"};
       for (const auto& entry : node) {
         const std::string key = entry.first.as<std::string>();
         RELIT_REQUIRE(known.count(key), config.file, ":", entry.first.Mark().line + 1,
                       ": unknown key 'relight.", key,
-                      "' (known keys: cues, dataset, export, log_level, model, partitions, render, train)");
+                      "' (known keys: augment, cues, dataset, eval, export, log_level, model, partitions, render, train)");
       }
     }
   }

@@ -20,7 +20,7 @@ std::vector<StepStatus> PipelineStatus(const PipelineConfig& config, const std::
   // Hash-cache updates are kept: the next run profits from them.
   HashCache hashes((fs::path(w) / ".relit" / "hash_cache.json").string());
   ToolLocator tools(config.tools, self_dir.empty() ? SelfDirectory() : self_dir);
-  StepGraph graph(config, w, WithExport(config, tools));
+  StepGraph graph(config, w, WithExport(config, tools), WithAugment(config, tools));
   std::error_code error;
   const bool have_plan = fs::exists(fs::path(w) / "relight" / "plan" / "plan.json", error);
   if (have_plan) graph.ExpandPartitions(ReadPlanPartitions(w));

@@ -49,7 +49,8 @@ bool IsExecutable(const std::string& path) {
 const std::vector<std::string>& StepKinds() {
   static const std::vector<std::string> kKinds = {"capture", "calib",  "reconstruct",
                                                   "cues",    "plan",   "train",
-                                                  "render",  "export", "report"};
+                                                  "augment", "render", "export",
+                                                  "eval",    "report"};
   return kKinds;
 }
 
@@ -113,8 +114,9 @@ std::string SelfDirectory() {
   return error ? "" : self.parent_path().string();
 }
 
-StepGraph::StepGraph(const PipelineConfig& config, const std::string& workspace, bool with_export)
-    : config_(config), workspace_(workspace) {
+StepGraph::StepGraph(const PipelineConfig& config, const std::string& workspace, bool with_export,
+                     bool with_augment)
+    : config_(config), workspace_(workspace), with_augment_(with_augment) {
   const std::string w = workspace;
   {
     Step s = MakeStep("capture", "capture");
@@ -185,6 +187,13 @@ StepGraph::StepGraph(const PipelineConfig& config, const std::string& workspace,
   Add(relight_step("render", {"calib", "reconstruct", "plan"}, {"render"}, "relight/render"));
   // Export also writes the interop views of the calibrated cameras.
   if (with_export) Add(relight_step("export", {"calib", "reconstruct", "plan"}, {"export"}, "relight/export"));
+  // Scores against ground truth when the capture is synthetic (inputs.truth).
+  if (!config.truth.empty()) {
+    Step s = relight_step("eval", {"calib", "reconstruct", "cues", "plan"}, {"eval", "render"}, "relight/eval");
+    s.inputs.push_back({"inputs.truth", config.truth});
+    s.args.insert(s.args.end(), {"--truth", config.truth});
+    Add(s);
+  }
   {
     Step s = MakeStep("report", "report");
     for (const Step& other : steps_) s.deps.push_back(other.name);
@@ -201,7 +210,7 @@ void StepGraph::Add(Step step) { steps_.push_back(std::move(step)); }
 
 void StepGraph::ExpandPartitions(const std::vector<int>& partitions) {
   steps_.erase(std::remove_if(steps_.begin(), steps_.end(),
-                              [](const Step& s) { return s.kind == "train"; }),
+                              [](const Step& s) { return s.kind == "train" || s.kind == "augment"; }),
                steps_.end());
   std::vector<std::string> names;
   std::vector<Step> train_steps;
@@ -221,14 +230,38 @@ void StepGraph::ExpandPartitions(const std::vector<int>& partitions) {
     names.push_back(s.name);
     train_steps.push_back(std::move(s));
   }
-  // Train steps go right after plan; render, export and report read them.
+  // Augmentation fine-tunes each partition after every partition is trained:
+  // its targets come from the blend of the point-light models.
+  std::vector<std::string> train_names = names;
+  if (with_augment_) {
+    for (int index : partitions) {
+      Step s = MakeStep("augment-" + PartitionName(index), "augment");
+      s.partition = index;
+      s.deps = {"calib", "reconstruct", "cues", "plan"};
+      s.deps.insert(s.deps.end(), train_names.begin(), train_names.end());
+      s.args = {"augment", "--workspace", workspace_, "--config", "{config}", "--partition",
+                std::to_string(index)};
+      s.output = "relight/augment/" + PartitionName(index);
+      s.params = nlohmann::json::object();
+      for (const char* key : {"augment", "train"}) {
+        s.params[std::string("relight.") + key] = Params(Sub(config_.relight, key));
+      }
+      s.config_yaml = YamlText(config_.relight);
+      s.tool = "relight";
+      names.push_back(s.name);
+      train_steps.push_back(std::move(s));
+    }
+  }
+  // Train (and augment) steps go right after plan; the steps after them read them.
   auto plan = std::find_if(steps_.begin(), steps_.end(), [](const Step& s) { return s.name == "plan"; });
   RELIT_CHECK(plan != steps_.end());
   steps_.insert(plan + 1, train_steps.begin(), train_steps.end());
   for (Step& s : steps_) {
-    if (s.kind != "render" && s.kind != "export" && s.kind != "report") continue;
+    if (s.kind != "render" && s.kind != "export" && s.kind != "eval" && s.kind != "report") continue;
     s.deps.erase(std::remove_if(s.deps.begin(), s.deps.end(),
-                                [](const std::string& d) { return d.rfind("train-", 0) == 0; }),
+                                [](const std::string& d) {
+                                  return d.rfind("train-", 0) == 0 || d.rfind("augment-", 0) == 0;
+                                }),
                  s.deps.end());
     s.deps.insert(s.deps.end(), names.begin(), names.end());
   }
@@ -302,9 +335,11 @@ bool IsKnownSelector(const std::string& selector) {
   if (selector == "relight" || std::find(kinds.begin(), kinds.end(), selector) != kinds.end()) {
     return true;
   }
-  if (selector.rfind("train-", 0) == 0 && selector.size() == 8) {
-    return std::isdigit(static_cast<unsigned char>(selector[6])) &&
-           std::isdigit(static_cast<unsigned char>(selector[7]));
+  for (const std::string prefix : {"train-", "augment-"}) {
+    if (selector.rfind(prefix, 0) == 0 && selector.size() == prefix.size() + 2) {
+      return std::isdigit(static_cast<unsigned char>(selector[prefix.size()])) &&
+             std::isdigit(static_cast<unsigned char>(selector[prefix.size() + 1]));
+    }
   }
   return false;
 }

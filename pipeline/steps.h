@@ -72,8 +72,10 @@ std::string SelfDirectory();
 class StepGraph {
  public:
   // Every step except the per-partition train steps. `workspace` must be
-  // absolute. `with_export` adds the export step.
-  StepGraph(const PipelineConfig& config, const std::string& workspace, bool with_export);
+  // absolute. `with_export` adds the export step, `with_augment` an augment
+  // step per partition (after every train step).
+  StepGraph(const PipelineConfig& config, const std::string& workspace, bool with_export,
+            bool with_augment = false);
 
   // Adds train-KK for each partition index and makes render/export depend on
   // them. Replaces earlier train steps.
@@ -91,6 +93,7 @@ class StepGraph {
   void Add(Step step);
   const PipelineConfig config_;
   const std::string workspace_;
+  const bool with_augment_;
   std::vector<Step> steps_;
   bool expanded_ = false;
 };

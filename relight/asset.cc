@@ -20,7 +20,7 @@ namespace relit::relight {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-AssetDescription DescribeWorkspace(const std::string& workspace) {
+AssetDescription DescribeWorkspace(const std::string& workspace, ModelSet models) {
   const fs::path root = fs::absolute(workspace);
   const Plan plan = ReadPlan((root / "relight" / "plan" / "plan.json").string());
   const std::string cues_path = (root / "relight" / "cues" / "cues.json").string();
@@ -40,9 +40,16 @@ AssetDescription DescribeWorkspace(const std::string& workspace) {
   }
   asset.capture_distance_m = distance / std::max<size_t>(1, cues.frames.size());
   for (size_t p = 0; p < plan.partitions.size(); ++p) {
-    const fs::path dir = root / "relight" / "partitions" / PartitionDirName(static_cast<int>(p));
-    const bool trained = fs::exists(dir / "train.json") && fs::exists(dir / "checkpoint" / "checkpoint.json");
-    asset.partition_models.push_back(trained ? (dir / "checkpoint").string() : "");
+    const std::string name = PartitionDirName(static_cast<int>(p));
+    auto trained = [](const fs::path& dir) {
+      return fs::exists(dir / "train.json") && fs::exists(dir / "checkpoint" / "checkpoint.json");
+    };
+    const fs::path augmented = root / "relight" / "augment" / name, point = root / "relight" / "partitions" / name;
+    if (models == ModelSet::kFinal && trained(augmented)) {
+      asset.partition_models.push_back((augmented / "checkpoint").string());
+    } else {
+      asset.partition_models.push_back(trained(point) ? (point / "checkpoint").string() : "");
+    }
   }
   return asset;
 }

@@ -41,8 +41,14 @@ struct AssetDescription {
   std::vector<std::string> partition_models;  // absolute checkpoint folders; "" = not trained
 };
 
-// From W/relight/{plan,cues,partitions}. Throws when the plan or cues are missing.
-AssetDescription DescribeWorkspace(const std::string& workspace);
+// Which trained models of a workspace to use per partition.
+enum class ModelSet {
+  kFinal,       // the augmented model (W/relight/augment/KK) when present, else the point-light one
+  kPointLight,  // only the point-light models of W/relight/partitions/KK (before augmentation)
+};
+
+// From W/relight/{plan,cues,partitions,augment}. Throws when the plan or cues are missing.
+AssetDescription DescribeWorkspace(const std::string& workspace, ModelSet models = ModelSet::kFinal);
 // From an exported folder. Throws relit::Error naming the file.
 AssetDescription ReadAsset(const std::string& dir);
 

@@ -9,6 +9,7 @@
 #include "core/run_record.h"
 #include "relight/asset.h"
 #include "relight/cue_stage.h"
+#include "relight/eval.h"
 #include "relight/interop.h"
 #include "relight/plan.h"
 #include "relight/relight_options.h"
@@ -26,8 +27,10 @@ void RelightOptions::Read(OptionsReader& reader) {
            {"partitions", [&](OptionsReader& r) { partitions.Read(r); }},
            {"model", [&](OptionsReader& r) { model.Read(r); }},
            {"train", [&](OptionsReader& r) { train.Read(r); }},
+           {"augment", [&](OptionsReader& r) { augment.Read(r); }},
            {"render", [&](OptionsReader& r) { render.Read(r); }},
-           {"export", [&](OptionsReader& r) { exports.Read(r); }}}) {
+           {"export", [&](OptionsReader& r) { exports.Read(r); }},
+           {"eval", [&](OptionsReader& r) { eval.Read(r); }}}) {
     OptionsReader child = reader.Child(key);
     read(child);
   }
@@ -43,15 +46,17 @@ void RelightOptions::Check() const {
   partitions.Check();
   model.Check();
   train.Check();
+  augment.Check();
   render.Check();
   exports.Check();
+  eval.Check();
 }
 
 nlohmann::json RelightOptions::ToJson() const {
   return {{"workspace", workspace},          {"cues", cues.ToJson()},   {"dataset", dataset.ToJson()},
           {"partitions", partitions.ToJson()}, {"model", model.ToJson()}, {"train", train.ToJson()},
-          {"render", render.ToJson()},        {"export", exports.ToJson()},
-          {"log_level", log_level}};
+          {"augment", augment.ToJson()},          {"render", render.ToJson()},        {"export", exports.ToJson()},
+          {"eval", eval.ToJson()},            {"log_level", log_level}};
 }
 
 namespace {
@@ -84,9 +89,16 @@ int RunRelight(int argc, char** argv) {
   CLI::App* cues = app.add_subcommand("cues", "render the radiance cues of every training frame");
   CLI::App* plan = app.add_subcommand("plan", "split frames into training/validation and partitions");
   CLI::App* train = app.add_subcommand("train", "train one partition (resumes from its checkpoint)");
+  CLI::App* augment = app.add_subcommand("augment", "lighting augmentation: fine-tune one partition under "
+                                          "environment maps (after every partition is trained)");
   CLI::App* render = app.add_subcommand("render", "render turntables, or the views of a --views JSON file");
   CLI::App* export_asset = app.add_subcommand("export", "write the self-contained relightable asset folder");
-  for (CLI::App* sub : {cues, plan, train, render, export_asset}) common(sub);
+  CLI::App* eval = app.add_subcommand("eval", "score the trained workspace against a synthetic capture's ground "
+                                      "truth (truth.json's eval set)");
+  for (CLI::App* sub : {cues, plan, train, augment, render, export_asset, eval}) common(sub);
+  std::string truth;
+  eval->add_option("--truth", truth, "relit-synth's truth.json (with its eval/ folder)")->required();
+  eval->add_option("--out", out, "output folder (default W/relight/eval)");
   export_asset->add_option("--out", out, "asset folder (default W/relight/export)");
   InteropOptions interop;
   bool no_interop = false;
@@ -105,6 +117,8 @@ int RunRelight(int argc, char** argv) {
       ->capture_default_str();
   train->add_option("--partition", partition, "partition index K (see plan.json)")->required();
   train->add_flag("--restart", restart, "discard the checkpoint and start over");
+  augment->add_option("--partition", partition, "partition index K (see plan.json)")->required();
+  augment->add_flag("--restart", restart, "discard the augmented frames and checkpoint and start over");
   render->add_option("--views", views, "JSON file of cameras and lights to render (docs/relight.md)")
       ->check(CLI::ExistingFile);
   render->add_option("--out", out, "output folder for --views");
@@ -147,6 +161,10 @@ int RunRelight(int argc, char** argv) {
     LogFile log(relight_dir / "logs" / ("train_" + PartitionDirName(std::max(partition, 0)) + ".log"), level);
     const TrainStageResult result = RunTrainStage(workspace, partition, options.model, options.train, restart, record);
     if (result.interrupted) return 130;
+  } else if (augment->parsed()) {
+    LogFile log(relight_dir / "logs" / ("augment_" + PartitionDirName(std::max(partition, 0)) + ".log"), level);
+    const AugmentStageResult result = RunAugmentStage(workspace, partition, options.augment, options.train, restart, record);
+    if (result.interrupted) return 130;
   } else if (render->parsed()) {
     if (!views.empty()) {
       RELIT_REQUIRE(!out.empty(), "render --views needs --out DIR");
@@ -155,6 +173,10 @@ int RunRelight(int argc, char** argv) {
       LogFile log(relight_dir / "logs" / "render.log", level);
       RunRenderStage(workspace, options.render, record);
     }
+  } else if (eval->parsed()) {
+    LogFile log(relight_dir / "logs" / "eval.log", level);
+    RunEval(workspace, truth, out.empty() ? (relight_dir / "eval").string() : out, options.eval, options.render,
+            record);
   }
   if (export_asset->parsed()) {
     LogFile log(relight_dir / "logs" / "export.log", level);

@@ -1,12 +1,14 @@
 // The `relight:` section of pipeline.yaml (the file `relit-relight --config`
-// reads). Top-level keys: cues, dataset, partitions, model, train, render,
-// export, log_level. Unknown keys are errors. docs/relight.md explains every key.
+// reads). Top-level keys: cues, dataset, partitions, model, train, augment,
+// render, export, eval, log_level. Unknown keys are errors. docs/relight.md explains every key.
 #pragma once
 
 #include <string>
 
 #include <nlohmann/json.hpp>
 
+#include "relight/augment.h"
+#include "relight/eval.h"
 #include "relight/interop.h"
 #include "relight/model.h"
 #include "relight/partitions.h"
@@ -23,6 +25,8 @@ struct RelightOptions {
   ModelOptions model;
   TrainStageOptions train;
   RenderStageOptions render;
+  AugmentOptions augment;
+  EvalOptions eval;        // `relit-relight eval` (eval.h)
   InteropOptions exports;  // key `export`: the interop exports next to the asset
   std::string log_level = "info";
 

@@ -13,6 +13,7 @@
 #include "core/run_record.h"
 #include "core/json_file.h"
 #include "relight/asset.h"
+#include "relight/augment.h"
 #include "relight/checkpoint.h"
 #include "relight/cue_frames.h"
 #include "relight/cue_stage.h"
@@ -250,6 +251,80 @@ TEST_F(RelightStageTest, ExportedAssetRendersBitIdenticallyToTheWorkspace) {
   }
 }
 
+AugmentOptions SmallAugment() {
+  AugmentOptions a;
+  a.maps = 6;
+  a.map_width_px = 64;
+  a.views = 3;
+  a.maps_per_view = 2;
+  a.directions = 8;
+  a.samples_per_pixel = 2;
+  a.map_samples_per_pixel = 4;
+  a.steps = 10;
+  return a;
+}
+
+// Lighting augmentation: augmented frames for views x maps, a fine-tuned
+// model that continues the point-light one (and replaces it for rendering),
+// an exact resume, and the linearity the method rests on.
+TEST_F(RelightStageTest, AugmentFineTunesThePointLightModelUnderEnvironmentMaps) {
+  RunRecord record("test");
+  const TrainStageOptions training = SmallTraining(20);
+  RunTrainStage(dir_, 0, SmallModel(), training, true, record);
+  const auto start = std::chrono::steady_clock::now();
+  const AugmentStageResult result = RunAugmentStage(dir_, 0, SmallAugment(), training, true, record);
+  std::printf("augment: %.1f s\n", Seconds(start));
+  EXPECT_EQ(result.views, 3);
+  EXPECT_EQ(result.frames, 6);
+  EXPECT_EQ(result.steps, 30);  // continues the point-light model's 20 steps
+  EXPECT_GT(result.val_psnr_before_db, 0);
+  EXPECT_GT(result.val_psnr_after_db, result.val_psnr_before_db - 0.5);  // captured frames do not degrade
+  const fs::path dir = fs::path(dir_) / "relight/augment/00";
+  ASSERT_TRUE(fs::exists(dir / "train.json"));
+  std::vector<fs::path> targets;
+  for (const auto& entry : fs::directory_iterator(dir / "frames")) {
+    const std::string name = entry.path().filename().string();
+    if (name.size() > 11 && name.substr(name.size() - 11) == ".target.exr") targets.push_back(entry.path());
+  }
+  ASSERT_EQ(targets.size(), 6u);
+  const Image target = ReadImage(targets[0].string());
+  ASSERT_EQ(target.channels(), 4);
+  double lit = 0;
+  for (size_t p = 0; p < target.pixel_count(); ++p) {
+    const float* px = &target.data()[4 * p];
+    ASSERT_TRUE(std::isfinite(px[0]) && px[0] >= 0 && px[3] >= 0 && px[3] <= 1.001f);
+    lit += px[3] > 0.5f ? px[0] + px[1] + px[2] : 0;
+  }
+  EXPECT_GT(lit, 10.0);  // the object is lit under the map
+  EXPECT_EQ(DescribeWorkspace(dir_).partition_models[0], (dir / "checkpoint").string());
+  EXPECT_EQ(DescribeWorkspace(dir_, ModelSet::kPointLight).partition_models[0],
+            (fs::path(dir_) / "relight/partitions/00/checkpoint").string());
+
+  // Rerun: nothing to redo (frames kept, training already at its end).
+  const auto written = fs::last_write_time(targets[0]);
+  const AugmentStageResult again = RunAugmentStage(dir_, 0, SmallAugment(), training, false, record);
+  EXPECT_EQ(again.resumed_from, 30);
+  EXPECT_EQ(fs::last_write_time(targets[0]), written);
+
+  // Light transport is linear: twice the map's light, twice the target and
+  // twice the cues, with the same directions and seeds.
+  AugmentOptions brighter = SmallAugment();
+  brighter.exposure = 2.0;
+  const Image cues_before = ReadCueFrame(targets[0].string().substr(0, targets[0].string().size() - 11) + ".cues.exr");
+  RunAugmentStage(dir_, 0, brighter, training, false, record);
+  const Image target2 = ReadImage(targets[0].string());
+  const Image cues2 = ReadCueFrame(targets[0].string().substr(0, targets[0].string().size() - 11) + ".cues.exr");
+  double sum1 = 0, sum2 = 0, cue1 = 0, cue_2 = 0;
+  for (size_t p = 0; p < target.pixel_count(); ++p) {
+    if (target.data()[4 * p + 3] < 0.5f) continue;
+    for (int c = 0; c < 3; ++c) sum1 += target.data()[4 * p + c], sum2 += target2.data()[4 * p + c];
+    cue1 += cues_before.data()[22 * p];
+    cue_2 += cues2.data()[22 * p];
+  }
+  EXPECT_NEAR(sum2 / sum1, 2.0, 0.01);  // half-float storage
+  EXPECT_NEAR(cue_2 / cue1, 2.0, 0.01);
+}
+
 TEST(RelightStageErrors, MissingUpstreamOutputsNameTheStageToRun) {
   const std::string dir = (fs::temp_directory_path() / ("relit_relight_err_" + std::to_string(::getpid()))).string();
   fs::create_directories(dir);
@@ -262,6 +337,12 @@ TEST(RelightStageErrors, MissingUpstreamOutputsNameTheStageToRun) {
   }
   try {
     RunTrainStage(dir, 0, SmallModel(), SmallTraining(1), false, record);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("relit-relight plan"), std::string::npos) << e.what();
+  }
+  try {
+    RunAugmentStage(dir, 0, SmallAugment(), SmallTraining(1), false, record);
     FAIL() << "expected an error";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("relit-relight plan"), std::string::npos) << e.what();

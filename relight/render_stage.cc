@@ -75,10 +75,13 @@ std::vector<std::pair<int, double>> RelitRenderer::Weights(const Eigen::Vector3d
 Image RelitRenderer::Render(const Camera& camera, const CueLight& light, const CueRenderSettings& settings_in) {
   CueRenderSettings settings = settings_in;
   settings.max_depth = asset_.cue_max_depth;  // new views see the cues the networks were trained on
-  const Image cue_frame = RenderCueFrame(*scene_, camera, light, settings);
+  return RenderCues(RenderCueFrame(*scene_, camera, light, settings), camera.Center());
+}
+
+Image RelitRenderer::RenderCues(const Image& cue_frame, const Eigen::Vector3d& camera_centre_m) {
   const Batch batch = CueFrameToBatch(cue_frame);
   Image result(cue_frame.width(), cue_frame.height(), {"R", "G", "B", "A"});
-  for (const auto& [partition, weight] : Weights(camera.Center() - asset_.object_centre_m)) {
+  for (const auto& [partition, weight] : Weights(camera_centre_m - asset_.object_centre_m)) {
     const Image rgba = RenderFrame(*models_[partition], batch);
     for (size_t i = 0; i < result.data().size(); ++i) result.data()[i] += static_cast<float>(weight) * rgba.data()[i];
   }

@@ -40,6 +40,11 @@ class RelitRenderer {
   // Premultiplied linear RGBA of `camera` under `light` (light intensities
   // in the cues' units, see cues.flash_intensity).
   Image Render(const Camera& camera, const CueLight& light, const CueRenderSettings& settings);
+  // The same for a cue frame rendered elsewhere (e.g. with scene()), seen
+  // from `camera_centre_m` (which picks the partitions).
+  Image RenderCues(const Image& cue_frame, const Eigen::Vector3d& camera_centre_m);
+  // The proxy scene the cues are rendered on.
+  render::Scene& scene() { return *scene_; }
 
   const AssetDescription& asset() const { return asset_; }
   // Partitions weights for a view direction after dropping untrained ones.

@@ -1,7 +1,6 @@
 #include "relight/train_stage.h"
 
-#include <atomic>
-#include <csignal>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -20,6 +19,7 @@
 #include "relight/dataset.h"
 #include "relight/metrics.h"
 #include "relight/plan.h"
+#include "relight/train_loop.h"
 
 namespace relit::relight {
 
@@ -59,96 +59,6 @@ std::string PartitionDirName(int partition) {
   std::snprintf(name, sizeof(name), "%02d", partition);
   return name;
 }
-
-namespace {
-
-std::atomic<int> g_signal{0};
-extern "C" void OnStopSignal(int signal) { g_signal.store(signal); }
-
-// Installs SIGINT/SIGTERM handlers for the scope (training checkpoints and
-// stops cleanly instead of dying mid-step).
-class StopSignals {
- public:
-  StopSignals() {
-    g_signal.store(0);
-    previous_int_ = std::signal(SIGINT, OnStopSignal);
-    previous_term_ = std::signal(SIGTERM, OnStopSignal);
-  }
-  ~StopSignals() {
-    std::signal(SIGINT, previous_int_);
-    std::signal(SIGTERM, previous_term_);
-  }
-  int received() const { return g_signal.load(); }
-
- private:
-  void (*previous_int_)(int);
-  void (*previous_term_)(int);
-};
-
-// Frame order: a fresh permutation per epoch, a pure function of (seed,
-// epoch), so a resumed run visits the same frames as an uninterrupted one.
-class FrameOrder {
- public:
-  FrameOrder(int count, uint64_t seed) : count_(count), seed_(seed) {}
-  int At(int64_t step) {
-    const int64_t epoch = step / count_;
-    if (epoch != epoch_) {
-      auto generator = at::make_generator<at::CPUGeneratorImpl>(seed_ * 7919 + static_cast<uint64_t>(epoch) + 1);
-      permutation_ = torch::randperm(count_, generator, torch::kLong);
-      epoch_ = epoch;
-    }
-    return static_cast<int>(permutation_[step % count_].item<int64_t>());
-  }
-
- private:
-  int count_;
-  uint64_t seed_;
-  int64_t epoch_ = -1;
-  torch::Tensor permutation_;
-};
-
-Batch Concatenate(const std::vector<const Batch*>& frames) {
-  if (frames.size() == 1) return *frames[0];
-  auto cat = [&](auto member) {
-    std::vector<torch::Tensor> parts;
-    for (const Batch* b : frames) parts.push_back(b->*member);
-    return torch::cat(parts, 0);
-  };
-  Batch batch;
-  batch.uv = cat(&Batch::uv);
-  batch.uv_derivatives = cat(&Batch::uv_derivatives);
-  batch.coverage = cat(&Batch::coverage);
-  batch.cues = cat(&Batch::cues);
-  batch.target_rgb = cat(&Batch::target_rgb);
-  batch.target_matte = cat(&Batch::target_matte);
-  return batch;
-}
-
-ImageMetrics Validate(DnlModel& model, const std::vector<Batch>& frames) {
-  std::vector<ImageMetrics> metrics;
-  for (const Batch& frame : frames) {
-    const Image predicted = RenderFrame(model, frame);
-    const Image target = TensorToImage(frame.target_rgb, {"R", "G", "B"});
-    const Image matte = TensorToImage(frame.target_matte, {"A"});
-    metrics.push_back(CompareToReference(predicted, target, matte));
-  }
-  return PoolMetrics(metrics);
-}
-
-// Keeps the log lines of steps <= `step` (the checkpoint a resumed run starts from).
-void TruncateLog(const fs::path& log, int64_t step) {
-  if (!fs::exists(log)) return;
-  std::ifstream in(log);
-  std::ostringstream kept;
-  std::string line;
-  while (std::getline(in, line)) {
-    const json j = json::parse(line, nullptr, false);
-    if (!j.is_discarded() && j.contains("step") && j["step"].get<int64_t>() <= step) kept << line << "\n";
-  }
-  AtomicWriteFile(log, kept.str());
-}
-
-}  // namespace
 
 TrainStageResult RunTrainStage(const std::string& workspace, int partition, const ModelOptions& model_options_in,
                                const TrainStageOptions& options, bool restart, RunRecord& record) {
@@ -221,72 +131,37 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
     }
   }
 
-  std::ofstream log(log_path, std::ios::app);
   FrameOrder order(static_cast<int>(frames.size()), options.optimizer.seed);
-  StopSignals signals;
-  const int64_t start_step = trainer->step();
-  const int64_t total = options.steps;
-  Progress progress("train partition " + PartitionDirName(partition), total - std::min(start_step, total));
+  TrainLoopSettings settings;
+  settings.label = "train partition " + PartitionDirName(partition);
+  settings.total_steps = options.steps;
+  settings.checkpoint_every = options.checkpoint_every;
+  settings.validate_every = options.validate_every;
+  settings.log_every = options.log_every;
+  settings.checkpoint_dir = checkpoint_dir;
+  settings.log_path = log_path;
   const auto start = std::chrono::steady_clock::now();
-  double loss_sum = 0;
-  int loss_count = 0;
-  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
-  auto validate = [&](int64_t step) {
-    if (validation.empty()) return;
-    const ImageMetrics m = Validate(trainer->model(), validation);
-    result.val_psnr_db = m.psnr_db;
-    result.val_mae = m.mae;
-    log << json{{"step", step}, {"val_psnr_db", m.psnr_db}, {"val_mae", m.mae}, {"val_alpha_mae", m.alpha_mae}}.dump()
-        << "\n" << std::flush;
-  };
+  TrainLoopResult loop;
   {
     auto timer = record.Time("train");
-    while (trainer->step() < total) {
+    const int batch_size = options.optimizer.batch_size;
+    loop = RunTrainLoop(*trainer, [&](int64_t step) {
       std::vector<const Batch*> batch;
-      for (int b = 0; b < options.optimizer.batch_size; ++b) {
-        batch.push_back(&frames[order.At(trainer->step() * options.optimizer.batch_size + b)]);
-      }
-      const Losses losses = trainer->Step(Concatenate(batch));
-      const int64_t step = trainer->step();
-      const double loss = losses.total.item<double>();
-      RELIT_REQUIRE(std::isfinite(loss), "train: partition ", partition, ": the loss became ", loss, " at step ",
-                    step, "; lower train.learning_rate or check the input frames");
-      loss_sum += loss;
-      ++loss_count;
-      result.final_loss = loss;
-      if (step % options.log_every == 0 || step == total) {
-        log << json{{"step", step}, {"time_s", elapsed()}, {"loss", loss_sum / loss_count},
-                    {"rgb_loss", losses.rgb.item<double>()}, {"mask_loss", losses.mask.item<double>()}}.dump()
-            << "\n" << std::flush;
-        char status[64];
-        std::snprintf(status, sizeof(status), "loss %.4f", loss_sum / loss_count);
-        progress.SetStatus(status);
-        loss_sum = 0;
-        loss_count = 0;
-      }
-      if (options.validate_every > 0 && step % options.validate_every == 0 && step != total) validate(step);
-      progress.Advance();
-      if (step % options.checkpoint_every == 0 || step == total || signals.received() != 0) {
-        SaveCheckpoint(checkpoint_dir, *trainer);
-      }
-      if (signals.received() != 0) {
-        result.interrupted = true;
-        break;
-      }
-    }
+      for (int b = 0; b < batch_size; ++b) batch.push_back(&frames[order.At(step * batch_size + b)]);
+      return Concatenate(batch);
+    }, validation, settings);
   }
-  progress.Finish();
   result.steps = trainer->step();
-  if (result.interrupted) {
+  result.final_loss = loop.final_loss;
+  result.val_psnr_db = loop.validation.psnr_db;
+  result.val_mae = loop.validation.mae;
+  if (loop.interrupted) {
+    result.interrupted = true;
     spdlog::warn("train: partition {} stopped by signal {} at step {}; checkpoint saved, rerun to continue",
-                 partition, signals.received(), result.steps);
+                 partition, loop.signal, result.steps);
     return result;
   }
-  {
-    auto timer = record.Time("validate");
-    validate(result.steps);
-  }
-  const double seconds = elapsed();
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   record.Set("partition", partition);
   record.Set("steps", result.steps);
   record.Set("resumed_from_step", result.resumed_from);

@@ -217,11 +217,37 @@ class ReportWorkspaceTest : public ::testing::Test {
       }
     }
     WriteText(ws / "relight" / "render" / "turntable_point.mp4", "not a video: the report only links it");
-    WriteText(ws / "relight" / "eval" / "eval.json",
-              json({{"views", {{{"view", "eval_00"}, {"psnr_db", 27.5}, {"ssim", 0.91}},
-                               {{"view", "eval_01"}, {"psnr_db", 26.1}, {"ssim", 0.89}}}},
-                    {"mean_psnr_db", 26.8}}).dump());
-    WriteText(ws / "relight" / "eval" / "eval.md", "| view | PSNR |\n| eval_00 | 27.5 |\n");
+    // relight/eval as `relit-relight eval` writes it (relit.eval/1), with
+    // capture frames standing in for its PNGs.
+    const fs::path png = ws / cameras.FramesOf("view")[0]->image_8bit;
+    json images = json::array(), summary = json::array();
+    for (const std::string view : {"eval_00", "eval_01"}) {
+      const fs::path dir = ws / "relight" / "eval" / "images" / view;
+      fs::create_directories(dir);
+      fs::copy_file(png, dir / "point_00_gt.png", fs::copy_options::overwrite_existing);
+      for (const std::string method : {"model", "cues_only"}) {
+        for (const std::string suffix : {"", "_error"}) {
+          fs::copy_file(png, dir / ("point_00_" + method + suffix + ".png"), fs::copy_options::overwrite_existing);
+        }
+        const std::string stem = "images/" + view + "/point_00_";
+        images.push_back({{"view", view}, {"light", "point_00"}, {"light_type", "point"}, {"method", method},
+                          {"psnr_db", view == "eval_00" ? 27.5 : 26.1}, {"mae", 0.02}, {"ssim", 0.91},
+                          {"alpha_mae", 0.01}, {"render_png", stem + method + ".png"},
+                          {"error_png", stem + method + "_error.png"}, {"reference_png", stem + "gt.png"}});
+      }
+    }
+    for (const std::string method : {"model", "cues_only"}) {
+      for (const std::string type : {"point", "all"}) {
+        summary.push_back({{"method", method}, {"light_type", type}, {"images", 2},
+                           {"psnr_db", method == "model" ? 26.8 : 24.2}, {"mae", 0.02}, {"ssim", 0.9},
+                           {"alpha_mae", 0.01}});
+      }
+    }
+    WriteJsonFile((ws / "relight" / "eval" / "eval.json").string(), "eval", 1,
+                  {{"methods", {"model", "cues_only"}}, {"light_types", {"point"}}, {"views", 2}, {"lights", 1},
+                   {"light_unit", {{"factor", 1.43}, {"exposure", 1.0}}}, {"options", {{"error_map_scale", 5}}},
+                   {"summary", summary}, {"images", images}});
+    WriteText(ws / "relight" / "eval" / "eval.md", "| method | point |\n| model | 26.80 / 0.0200 / 0.900 |\n");
   }
 
   static fs::path* scratch_;
@@ -253,7 +279,8 @@ TEST_F(ReportWorkspaceTest, FullWorkspaceLoadsInChromiumWithoutErrors) {
   EXPECT_EQ(kinds, (std::set<std::string>{".png", ".svg"}));
   for (const std::string part : {"coverage_hemisphere.svg", "proxy_preview_0.png", "atlas_preview.png",
                                  "_trimap.png", "_matte.png", "training_psnr_all.svg", "turntable_env_",
-                                 "capture_frames.svg", "trajectories_top.svg", "eval_01", "26.8"}) {
+                                 "capture_frames.svg", "trajectories_top.svg", "eval_01", "26.80 / 0.0200 / 0.900",
+                                 "eval_eval_00_point_00_gt.png", "eval_eval_00_point_00_cues_only_error.png"}) {
     EXPECT_NE(html.find(part), std::string::npos) << part;
   }
   EXPECT_EQ(html.find("http://"), std::string::npos);  // nothing fetched from the network

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <set>
 
 #include <spdlog/spdlog.h>
@@ -302,24 +303,107 @@ Section RenderSection(ReportContext& context) {
   return section;
 }
 
+namespace {
+
+// eval.json of `relit-relight eval` (relit.eval/1): the method x light type
+// table of eval.md as HTML, and GT / render / error map thumbnails of the
+// first view under one light of each type.
+std::string EvalTables(ReportContext& context, const fs::path& dir, const json& eval) {
+  std::string html;
+  const std::vector<std::string> methods = eval.at("methods").get<std::vector<std::string>>();
+  std::vector<std::string> types = eval.at("light_types").get<std::vector<std::string>>();
+  types.push_back("all");
+  auto number = [](const json& row, const char* key, int decimals) {
+    return row.contains(key) && row[key].is_number() ? Fixed(row[key].get<double>(), decimals) : std::string("–");
+  };
+  std::vector<std::string> header = {"method"};
+  for (const std::string& t : types) header.push_back(t);
+  header.push_back("alpha MAE");
+  std::vector<std::vector<std::string>> rows;
+  for (const std::string& method : methods) {
+    std::vector<std::string> cells(types.size() + 2, "–");
+    cells[0] = method;
+    for (const json& row : eval.at("summary")) {
+      if (row.value("method", "") != method) continue;
+      const auto it = std::find(types.begin(), types.end(), row.value("light_type", ""));
+      if (it == types.end()) continue;
+      cells[1 + (it - types.begin())] =
+          number(row, "psnr_db", 2) + " / " + number(row, "mae", 4) + " / " + number(row, "ssim", 3);
+      if (*it == "all") cells.back() = number(row, "alpha_mae", 4);
+    }
+    rows.push_back(cells);
+  }
+  html += Paragraph("Cells: PSNR (dB) / MAE / SSIM, linear radiance on the ground-truth foreground, " +
+                    std::to_string(eval.value("views", 0)) + " held-out views x " +
+                    std::to_string(eval.value("lights", 0)) + " lights.");
+  html += Table(header, rows);
+  if (eval.contains("light_unit")) {
+    html += Paragraph("Light unit: ground-truth strengths x " + Fixed(eval["light_unit"].value("factor", 0.0), 4) +
+                      " (cue flash / true flash); exposure " + Fixed(eval["light_unit"].value("exposure", 1.0), 3) + ".");
+  }
+  // Error maps: the first view under the first light of each type.
+  const json& images = eval.at("images");
+  const std::string first_view = images.empty() ? "" : images[0].value("view", "");
+  std::map<std::string, std::string> light_of_type;
+  for (const json& image : images) {
+    if (image.value("view", "") == first_view) light_of_type.emplace(image.value("light_type", ""), image.value("light", ""));
+  }
+  const double scale = eval.value("options", json::object()).value("error_map_scale", 5.0);
+  std::vector<std::string> figures;
+  std::set<std::string> shown_references;
+  for (const json& image : images) {
+    const std::string light = image.value("light", ""), method = image.value("method", "");
+    if (image.value("view", "") != first_view || light_of_type[image.value("light_type", "")] != light ||
+        !image.contains("error_png")) {
+      continue;
+    }
+    const std::string stem = "eval_" + first_view + "_" + light;
+    if (shown_references.insert(light).second) {
+      figures.push_back(Figure(context.Thumbnail(dir / image["reference_png"].get<std::string>(), stem + "_gt"),
+                               first_view + ", " + light + ": ground truth"));
+    }
+    figures.push_back(Figure(context.Thumbnail(dir / image["render_png"].get<std::string>(), stem + "_" + method),
+                             method));
+    figures.push_back(Figure(context.Thumbnail(dir / image["error_png"].get<std::string>(), stem + "_" + method + "_error"),
+                             method + ": |error| x " + Fixed(scale, 0)));
+  }
+  if (!figures.empty()) html += FigureRow(figures);
+  std::vector<std::vector<std::string>> image_rows;
+  for (const json& image : eval.at("images")) {
+    image_rows.push_back({image.value("view", ""), image.value("light", ""), image.value("method", ""),
+                          number(image, "psnr_db", 2), number(image, "mae", 4), number(image, "ssim", 3),
+                          number(image, "alpha_mae", 4)});
+  }
+  html += "<details><summary>Per image</summary>" +
+          Table({"view", "light", "method", "PSNR (dB)", "MAE", "SSIM", "alpha MAE"}, image_rows) + "</details>\n";
+  return html;
+}
+
+}  // namespace
+
 Section EvalSection(ReportContext& context) {
   Section section{"eval", "Evaluation against ground truth", ""};
   const fs::path dir = context.Input("relight/eval");
   if (!fs::exists(dir / "eval.json") && !fs::exists(dir / "eval.md")) {
     section.html = NotRunYet("W/relight/eval/eval.json",
-                             "Run relit-relight eval on a capture with ground truth (relit-synth's truth.json).");
+                             "Run relit-relight eval --truth CAPTURE/truth.json on a capture with ground truth "
+                             "(relit-synth).");
     return section;
   }
   std::string& html = section.html;
   if (fs::exists(dir / "eval.json")) {
     const json eval = ReadAnyJson(dir / "eval.json");
-    html += ArrayTables(eval);
-    html += "<details><summary>All scalar fields of eval.json</summary>" + ScalarTable(eval, 3) + "</details>\n";
+    if (eval.value("schema", "") == SchemaString("eval", 1)) {
+      html += EvalTables(context, dir, eval);
+    } else {  // another layout: show what it holds
+      html += ArrayTables(eval);
+      html += "<details><summary>All scalar fields of eval.json</summary>" + ScalarTable(eval, 3) + "</details>\n";
+    }
   }
   if (fs::exists(dir / "eval.md")) {
     std::ifstream in(dir / "eval.md");
     const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    html += "<h3>eval.md</h3>\n<pre>" + Html(text) + "</pre>\n";
+    html += "<details><summary>eval.md</summary><pre>" + Html(text) + "</pre></details>\n";
   }
   return section;
 }

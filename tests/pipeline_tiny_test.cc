@@ -73,6 +73,7 @@ class PipelineTinyTest : public ::testing::Test {
          << "  view: " << (*synth_ / "view.mp4").string() << "\n"
          << "  light: " << (*synth_ / "light.mp4").string() << "\n"
          << "  proxy_mesh: " << (*synth_ / truth["objects"][0]["mesh"].get<std::string>()).string() << "\n"
+         << "  truth: " << (*synth_ / "truth.json").string() << "\n"
          << "board: {squares_x: " << board["squares_x"] << ", squares_y: " << board["squares_y"]
          << ", square_length_m: " << board["square_length_m"].get<double>()
          << ", marker_length_m: " << board["marker_length_m"].get<double>()
@@ -90,7 +91,10 @@ class PipelineTinyTest : public ::testing::Test {
          << "  model: {texture_resolution_px: 64, channels_per_basis: 2, ngf: 8, n_blocks: 1, mask_ngf: 4, "
             "mask_n_blocks: 1}\n"
          << "  train: {steps: " << relight_train_steps << ", crop_px: 64, max_validation_frames: 1}\n"
-         << "  render: {frames: 2, samples_per_pixel: 2}\n";
+         << "  augment: {maps: 6, map_width_px: 64, views: 2, maps_per_view: 1, directions: 4, "
+            "samples_per_pixel: 1, map_samples_per_pixel: 2, steps: 10}\n"
+         << "  render: {frames: 2, samples_per_pixel: 2}\n"
+         << "  eval: {samples_per_pixel: 2}\n";
     const fs::path path = *dir_ / "pipeline.yaml";
     std::ofstream(path) << yaml.str();
     return path;
@@ -143,6 +147,8 @@ TEST_F(PipelineTinyTest, RealStagesChainedByTheOrchestrator) {
   const json plan = ReadJsonFile((ws / "relight/plan/plan.json").string(), "relight_plan", 1);
   ASSERT_EQ(plan["partitions"].size(), 1u);  // layout single
   EXPECT_TRUE(fs::exists(ws / "relight/partitions/00/train.json"));
+  EXPECT_TRUE(fs::exists(ws / "relight/augment/00/train.json"));
+  EXPECT_TRUE(fs::exists(ws / "relight/eval/eval.json"));
   EXPECT_TRUE(fs::exists(ws / "relight/render/render.json"));
   EXPECT_TRUE(fs::exists(ws / "report/index.html"));
   EXPECT_TRUE(fs::exists(ws / "relight/export/manifest.json"));  // run.export: auto
@@ -157,7 +163,7 @@ TEST_F(PipelineTinyTest, RealStagesChainedByTheOrchestrator) {
   for (const char* step : {"capture", "calib", "reconstruct", "cues", "plan"}) {
     EXPECT_EQ(after["steps"][step]["finished_utc"], before["steps"][step]["finished_utc"]) << step;
   }
-  for (const char* step : {"train-00", "render", "report"}) {
+  for (const char* step : {"train-00", "augment-00", "render", "eval", "report"}) {
     EXPECT_NE(after["steps"][step]["finished_utc"], before["steps"][step]["finished_utc"]) << step;
   }
 }

@@ -1,0 +1,359 @@
+#include "relight/eval.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <set>
+
+#include <spdlog/spdlog.h>
+
+#include "core/atomic_output.h"
+#include "core/error.h"
+#include "core/json_file.h"
+#include "core/options.h"
+#include "core/progress.h"
+#include "core/run_record.h"
+#include "relight/asset.h"
+#include "relight/cue_stage.h"
+#include "relight/cues_baseline.h"
+#include "relight/plan.h"
+#include "relight/render_stage.h"
+
+namespace relit::relight {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+const std::vector<std::string>& KnownMethods() {
+  static const std::vector<std::string> methods = {"model", "model_point_light", "cues_only"};
+  return methods;
+}
+
+// truth.json's RGB strengths are a number or [r, g, b].
+Eigen::Vector3d Rgb(const json& j, const std::string& key, const std::string& where) {
+  const json& v = JsonField(j, key, where);
+  if (v.is_number()) return Eigen::Vector3d::Constant(v.get<double>());
+  return Vector3FromJson(v, where + "." + key);
+}
+
+json ToJsonArray(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+}  // namespace
+
+void EvalOptions::Read(OptionsReader& r) {
+  r.Read("methods", &methods);
+  r.ReadRange("samples_per_pixel", &samples_per_pixel, 0, 1 << 16);
+  r.Read("seed", &seed);
+  r.ReadRange("max_views", &max_views, 0, 100000);
+  r.ReadRange("baseline_resolution_px", &baseline_resolution_px, 1, 4096);
+  r.ReadRange("baseline_ridge", &baseline_ridge, 0.0, 1e9);
+  r.ReadRange("error_map_scale", &error_map_scale, 0.0, 1e6);
+  r.Read("write_images", &write_images);
+  r.Finish();
+  Check();
+}
+
+void EvalOptions::Check() const {
+  RELIT_REQUIRE(!methods.empty(), "eval.methods must list at least one of model, model_point_light, cues_only");
+  std::set<std::string> seen;
+  for (const std::string& m : methods) {
+    RELIT_REQUIRE(std::find(KnownMethods().begin(), KnownMethods().end(), m) != KnownMethods().end(),
+                  "eval.methods: unknown method '", m, "' (known: model, model_point_light, cues_only)");
+    RELIT_REQUIRE(seen.insert(m).second, "eval.methods lists '", m, "' twice");
+  }
+  RELIT_REQUIRE(samples_per_pixel >= 0, "eval.samples_per_pixel must be >= 0 (0 = render.samples_per_pixel)");
+  RELIT_REQUIRE(max_views >= 0, "eval.max_views must be >= 0 (0 = all)");
+  RELIT_REQUIRE(baseline_resolution_px >= 1, "eval.baseline_resolution_px must be >= 1");
+  RELIT_REQUIRE(baseline_ridge >= 0, "eval.baseline_ridge must be >= 0");
+  RELIT_REQUIRE(error_map_scale > 0, "eval.error_map_scale must be > 0");
+}
+
+json EvalOptions::ToJson() const {
+  return {{"methods", methods},
+          {"samples_per_pixel", samples_per_pixel},
+          {"seed", seed},
+          {"max_views", max_views},
+          {"baseline_resolution_px", baseline_resolution_px},
+          {"baseline_ridge", baseline_ridge},
+          {"error_map_scale", error_map_scale},
+          {"write_images", write_images}};
+}
+
+TruthEvalSet ReadTruthEvalSet(const std::string& truth_json) {
+  RELIT_REQUIRE(fs::exists(truth_json), "ground truth ", truth_json,
+                " does not exist (relit-synth writes truth.json next to the capture's videos)");
+  const json truth = ReadJsonFile(truth_json, "synth_truth", 1);
+  const fs::path root = fs::absolute(truth_json).parent_path();
+  TruthEvalSet set;
+  set.path = truth_json;
+  RELIT_REQUIRE(truth.contains("eval") && truth["eval"].is_object(), truth_json,
+                ": no \"eval\" set (held-out views with ground-truth images); render the capture with relit-synth "
+                "without --truth-only and with eval_views > 0");
+  RELIT_REQUIRE(truth.value("rendered", true), truth_json,
+                ": the evaluation images were not rendered (a --truth-only run); rerun relit-synth without --truth-only");
+  const json& eval = truth["eval"];
+  const std::string where = truth_json + ": eval";
+  set.intrinsics = IntrinsicsFromJson(JsonField(eval, "intrinsics", where), where + ".intrinsics");
+  set.flash_intensity_w_per_sr = Rgb(JsonField(truth, "flash", truth_json), "intensity_w_per_sr", truth_json + ": flash").mean();
+  RELIT_REQUIRE(set.flash_intensity_w_per_sr > 0, truth_json, ": flash.intensity_w_per_sr must be > 0");
+  if (truth.contains("sensor")) set.exposure = truth["sensor"].value("exposure", 1.0);
+  int index = 0;
+  for (const json& l : JsonField(eval, "lights", where)) {
+    const std::string at = where + ".lights[" + std::to_string(index++) + "]";
+    TruthLight light;
+    light.name = JsonString(l, "name", at);
+    light.type = JsonString(l, "type", at);
+    if (light.type == "point") {
+      light.position_m = Vector3FromJson(JsonField(l, "position_world_m", at), at + ".position_world_m");
+      light.rgb = Rgb(l, "intensity_w_per_sr", at);
+    } else if (light.type == "directional") {
+      light.direction_to_light =
+          Vector3FromJson(JsonField(l, "direction_to_light_world", at), at + ".direction_to_light_world").normalized();
+      light.rgb = Rgb(l, "irradiance", at);
+    } else if (light.type == "environment") {
+      light.envmap = (root / JsonString(l, "envmap", at)).string();
+      light.scale = l.value("scale", 1.0);
+      RELIT_REQUIRE(fs::exists(light.envmap), at, ": environment map ", light.envmap, " is missing");
+    } else {
+      Fail(at, ": light type must be point, directional or environment, got '", light.type, "'");
+    }
+    set.lights.push_back(light);
+  }
+  index = 0;
+  for (const json& v : JsonField(eval, "views", where)) {
+    const std::string at = where + ".views[" + std::to_string(index++) + "]";
+    TruthView view;
+    view.name = JsonString(v, "name", at);
+    RELIT_REQUIRE(!view.name.empty() && view.name.find('/') == std::string::npos, at, ": name must be a plain name");
+    view.cam_from_world = Rigid3FromJson(JsonField(v, "cam_from_world", at), at + ".cam_from_world");
+    view.alpha = (root / JsonString(v, "alpha", at)).string();
+    view.min_angle_to_training_rad = v.value("min_angle_to_training_views_rad", 0.0);
+    const json& images = JsonField(v, "images", at);
+    for (const TruthLight& light : set.lights) {
+      RELIT_REQUIRE(images.contains(light.name), at, ": no image for light ", light.name);
+      view.images[light.name] = (root / images[light.name].get<std::string>()).string();
+    }
+    std::vector<std::string> files = {view.alpha};
+    for (const auto& [name, path] : view.images) files.push_back(path);
+    for (const std::string& file : files) {
+      RELIT_REQUIRE(fs::exists(file), "ground-truth image ", file, " is missing (listed in ", truth_json,
+                    " for view ", view.name, "); re-render the capture with relit-synth");
+    }
+    set.views.push_back(view);
+  }
+  RELIT_REQUIRE(!set.views.empty() && !set.lights.empty(), truth_json, ": the eval set has no views or no lights");
+  return set;
+}
+
+CueLight ToCueLight(const TruthLight& light, double unit_factor) {
+  // Through the same JSON light parser as `render --views`.
+  json j;
+  if (light.type == "point") {
+    j = {{"type", "point"}, {"position_m", ToJsonArray(light.position_m)},
+         {"intensity", ToJsonArray(light.rgb * unit_factor)}};
+  } else if (light.type == "directional") {
+    j = {{"type", "directional"}, {"direction_to_light", ToJsonArray(light.direction_to_light)},
+         {"irradiance", ToJsonArray(light.rgb * unit_factor)}};
+  } else {
+    j = {{"type", "environment"}, {"map", light.envmap}, {"scale", light.scale * unit_factor}};
+  }
+  return LightFromJson(j, "", "eval light " + light.name);
+}
+
+namespace {
+
+bool AnyAugmented(const std::string& workspace) {
+  const fs::path dir = fs::path(workspace) / "relight" / "augment";
+  if (!fs::is_directory(dir)) return false;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    if (fs::exists(entry.path() / "train.json")) return true;
+  }
+  return false;
+}
+
+Image Scaled(Image image, double factor) {
+  if (factor != 1.0) {
+    for (float& v : image.data()) v *= static_cast<float>(factor);
+  }
+  return image;
+}
+
+void RequireSize(const Image& image, const Intrinsics& intrinsics, const std::string& path) {
+  RELIT_REQUIRE(image.width() == intrinsics.width && image.height() == intrinsics.height, path, " is ",
+                image.width(), "x", image.height(), ", truth.json's eval intrinsics say ", intrinsics.width, "x",
+                intrinsics.height);
+}
+
+}  // namespace
+
+EvalSummary RunEval(const std::string& workspace, const std::string& truth_json, const std::string& out_dir,
+                    const EvalOptions& options, const RenderStageOptions& render, RunRecord& record) {
+  options.Check();
+  render.Check();
+  const fs::path root = fs::absolute(workspace);
+  for (const char* file : {"relight/cues/cues.json", "relight/plan/plan.json"}) {
+    RELIT_REQUIRE(fs::exists(root / file), "workspace ", workspace, " is not trained: ", (root / file).string(),
+                  " is missing (run relit-relight cues, plan and train first)");
+  }
+  const TruthEvalSet truth = ReadTruthEvalSet(truth_json);
+  record.AddInput("truth", truth_json);
+  record.AddInput("plan", (root / "relight/plan/plan.json").string());
+
+  // Methods: the final models, the point-light ones when augmentation exists, the cue regression.
+  const bool augmented = AnyAugmented(root.string());
+  std::vector<std::string> methods, skipped;
+  for (const std::string& m : options.methods) {
+    (m == "model_point_light" && !augmented ? skipped : methods).push_back(m);
+  }
+  for (const std::string& m : skipped) {
+    spdlog::info("eval: {} skipped (no partition has an augmented model in W/relight/augment/)", m);
+  }
+  const AssetDescription asset = DescribeWorkspace(root.string(), ModelSet::kFinal);
+  RELIT_REQUIRE(std::any_of(asset.partition_models.begin(), asset.partition_models.end(),
+                            [](const std::string& m) { return !m.empty(); }),
+                "workspace ", workspace, " is not trained: no partition has train.json (run relit-relight train "
+                "--partition K first)");
+  std::map<std::string, std::unique_ptr<RelitRenderer>> renderers;
+  std::unique_ptr<CuesOnlyBaseline> baseline;
+  int baseline_frames = 0;
+  {
+    auto timer = record.Time("load");
+    for (const std::string& m : methods) {
+      if (m == "model") renderers[m] = std::make_unique<RelitRenderer>(asset);
+      if (m == "model_point_light") {
+        renderers[m] = std::make_unique<RelitRenderer>(DescribeWorkspace(root.string(), ModelSet::kPointLight));
+      }
+    }
+  }
+  if (std::count(methods.begin(), methods.end(), "cues_only") > 0) {
+    auto timer = record.Time("fit_cues_only");
+    const Plan plan = ReadPlan((root / "relight/plan/plan.json").string());
+    baseline = std::make_unique<CuesOnlyBaseline>(options.baseline_resolution_px, options.baseline_ridge);
+    std::vector<const PlanFrame*> frames;
+    for (const PlanFrame& f : plan.frames) {
+      if (!f.validation) frames.push_back(&f);
+    }
+    RELIT_REQUIRE(!frames.empty(), (root / "relight/plan/plan.json").string(), " has no training frame");
+    Progress progress("eval: fit cues_only", static_cast<int64_t>(frames.size()));
+    for (const PlanFrame* f : frames) {
+      baseline->Accumulate(ReadCueFrame((root / f->cues).string()), ReadImage((root / f->image).string()),
+                           ReadImage((root / f->matte).string()));
+      progress.Advance();
+    }
+    progress.Finish();
+    baseline->Solve();
+    baseline_frames = static_cast<int>(frames.size());
+  }
+
+  // Light units (see eval.h): the cue light stands for the true flash.
+  const double unit_factor = asset.flash_intensity / truth.flash_intensity_w_per_sr;
+  CueRenderSettings settings;
+  settings.samples_per_pixel = options.samples_per_pixel > 0 ? options.samples_per_pixel : render.samples_per_pixel;
+  settings.max_depth = asset.cue_max_depth;  // the cues the networks were trained on
+  const std::unique_ptr<render::Scene> scene = LoadProxyScene(asset.mesh);
+  const int training_spp = ReadCuesFile((root / "relight/cues/cues.json").string()).samples_per_pixel;
+  if (training_spp != settings.samples_per_pixel) {
+    spdlog::warn("eval: cue frames at {} spp, the training cues had {} (the networks' output shifts with the cues' "
+                 "noise level; set eval.samples_per_pixel: {} to match)",
+                 settings.samples_per_pixel, training_spp, training_spp);
+  }
+  const size_t view_count =
+      options.max_views > 0 ? std::min<size_t>(options.max_views, truth.views.size()) : truth.views.size();
+
+  AtomicDir out(out_dir);
+  std::vector<EvalImageResult> results;
+  Progress progress("eval", static_cast<int64_t>(view_count * truth.lights.size()));
+  for (size_t v = 0; v < view_count; ++v) {
+    const TruthView& view = truth.views[v];
+    const Camera camera(truth.intrinsics, view.cam_from_world);
+    const Image matte = ReadImage(view.alpha).SelectChannels(std::vector<int>{0});
+    RequireSize(matte, truth.intrinsics, view.alpha);
+    const fs::path image_dir = out.path() / "images" / view.name;
+    if (options.write_images) fs::create_directories(image_dir);
+    for (size_t l = 0; l < truth.lights.size(); ++l) {
+      const TruthLight& light = truth.lights[l];
+      const std::string gt_path = view.images.at(light.name);
+      Image reference = ReadImage(gt_path);
+      RELIT_REQUIRE(reference.channels() >= 3, gt_path, " has ", reference.channels(), " channels, expected RGB");
+      RequireSize(reference, truth.intrinsics, gt_path);
+      reference = Scaled(reference.SelectChannels(std::vector<int>{0, 1, 2}), truth.exposure);
+      settings.seed = options.seed * 1000003 + v * 1000 + l;
+      Image cues;
+      {
+        auto timer = record.Time("cues");
+        cues = RenderCueFrame(*scene, camera, ToCueLight(light, unit_factor), settings);
+      }
+      const std::string stem = light.name;
+      if (options.write_images) WriteReferencePng((image_dir / (stem + "_gt.png")).string(), reference, matte);
+      for (const std::string& method : methods) {
+        Image predicted;
+        {
+          auto timer = record.Time("predict_" + method);
+          predicted = method == "cues_only" ? baseline->Predict(cues)
+                                            : renderers.at(method)->RenderCues(cues, camera.Center());
+        }
+        EvalImageResult r;
+        r.view = view.name;
+        r.light = light.name;
+        r.light_type = light.type;
+        r.method = method;
+        r.metrics = CompareToReference(predicted, reference, matte);
+        r.ssim = ForegroundSsim(predicted, reference, matte);
+        if (options.write_images) {
+          const std::string rel = "images/" + view.name + "/" + stem + "_" + method;
+          WriteRenderPng((out.path() / (rel + ".png")).string(), predicted);
+          WriteErrorPng((out.path() / (rel + "_error.png")).string(), predicted, reference, matte,
+                        options.error_map_scale);
+          r.render_png = rel + ".png";
+          r.error_png = rel + "_error.png";
+          r.reference_png = "images/" + view.name + "/" + stem + "_gt.png";
+        }
+        spdlog::debug("eval: {} {} {}: PSNR {:.2f} dB, MAE {:.4f}, SSIM {:.3f}", view.name, light.name, method,
+                      r.metrics.psnr_db, r.metrics.mae, r.ssim);
+        results.push_back(r);
+      }
+      progress.Advance();
+    }
+  }
+  progress.Finish();
+
+  json header = {
+      {"workspace", root.string()},
+      {"truth", fs::absolute(truth_json).string()},
+      {"methods", methods},
+      {"skipped_methods", skipped},
+      {"views", view_count},
+      {"lights", truth.lights.size()},
+      {"light_unit",
+       {{"cue_flash_intensity", asset.flash_intensity},
+        {"true_flash_intensity_w_per_sr", truth.flash_intensity_w_per_sr},
+        {"factor", unit_factor},
+        {"exposure", truth.exposure},
+        {"note", "GT light strength S is rendered as S * factor; expected capture value = exposure * GT radiance"}}},
+      {"cues", {{"samples_per_pixel", settings.samples_per_pixel},
+                {"training_samples_per_pixel", training_spp},
+                {"max_depth", settings.max_depth}}},
+      {"cues_only", {{"training_frames", baseline_frames},
+                     {"resolution_px", options.baseline_resolution_px},
+                     {"pixels", baseline ? baseline->pixels_used() : 0}}},
+      {"models", asset.partition_models},
+      {"options", options.ToJson()},
+      {"timings_s", record.ToJson()["timings_s"]}};
+  WriteEvalReport(out.path().string(), results, methods, header);
+  record.Set("images", static_cast<int>(view_count * truth.lights.size()));
+  record.Set("methods", methods);
+  record.Write((out.path() / "run.json").string());
+  out.Commit();
+  spdlog::info("eval: {} images x {} methods scored into {}", view_count * truth.lights.size(), methods.size(),
+               out.target().string());
+  EvalSummary summary;
+  summary.out_dir = out.target().string();
+  summary.images = static_cast<int>(view_count * truth.lights.size());
+  summary.methods = methods;
+  return summary;
+}
+
+}  // namespace relit::relight

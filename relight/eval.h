@@ -1,0 +1,138 @@
+// `relit-relight eval`: scores a trained workspace against the ground truth
+// of a synthetic capture (relit-synth's truth.json, its "eval" set: held-out
+// pinhole views, each rendered under point, directional and environment
+// lights, with a GT alpha matte).
+//
+// For every (view, light) the proxy's cue frame is rendered once and fed to
+// every method:
+//   model              the workspace's final models (augmented when present)
+//   model_point_light  the point-light models only, when some partition is
+//                      augmented (before vs after augmentation)
+//   cues_only          the per-texel cue regression (cues_baseline.h) fitted
+//                      on the plan's training frames
+// Metrics (metrics.h: MAE, PSNR, alpha MAE on the GT foreground, linear) plus
+// SSIM, per image, per light type and overall, go to OUT/eval.json (schema
+// relit.eval/1) and OUT/eval.md; OUT/images/ holds the renders, |error| x 5
+// maps and the ground truth as PNGs; OUT/run.json the run record.
+//
+// Light units: the cues were rendered with a point light of
+// cues.flash_intensity (cue units) standing for the real flash, whose
+// absolute power a capture cannot observe. Eval takes it from the truth:
+// a GT light of strength S is rendered as S * flash_cue / flash_true, and
+// the expected capture value is sensor.exposure * GT radiance.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "core/camera.h"
+#include "core/image.h"
+#include "relight/cue_frames.h"
+#include "relight/metrics.h"
+#include "relight/stage_options.h"
+
+namespace relit {
+class OptionsReader;
+class RunRecord;
+}  // namespace relit
+
+namespace relit::relight {
+
+// Key `eval:` of the relight section.
+struct EvalOptions {
+  // Methods to score, in table order: model, model_point_light, cues_only.
+  // model_point_light is skipped (with a note) when no partition is augmented.
+  std::vector<std::string> methods = {"model", "model_point_light", "cues_only"};
+  int samples_per_pixel = 0;        // cue paths for the eval views; 0 = render.samples_per_pixel
+  uint64_t seed = 1;                // per-image cue seeds derive from it
+  int max_views = 0;                // 0 = every eval view (else the first N, for quick checks)
+  int baseline_resolution_px = 128; // cues_only texel grid
+  double baseline_ridge = 4.0;      // cues_only pull towards the global fit (pixels' worth)
+  double error_map_scale = 5.0;     // error PNGs show |pred - GT| x this
+  bool write_images = true;         // PNGs of renders, error maps and GT
+
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+// One light of truth.json "eval".
+struct TruthLight {
+  std::string name;                 // e.g. "point_00"
+  std::string type;                 // point | directional | environment
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();          // point
+  Eigen::Vector3d direction_to_light = Eigen::Vector3d::UnitZ();  // directional
+  Eigen::Vector3d rgb = Eigen::Vector3d::Ones();  // W/sr (point), irradiance (directional)
+  std::string envmap;               // environment: absolute path of the map
+  double scale = 1;                 // environment
+};
+
+struct TruthView {
+  std::string name;                 // e.g. "view_00"
+  Rigid3 cam_from_world;
+  std::string alpha;                // absolute path
+  std::map<std::string, std::string> images;  // light name -> absolute path
+  double min_angle_to_training_rad = 0;
+};
+
+// The "eval" part of truth.json with what eval needs from the rest.
+struct TruthEvalSet {
+  std::string path;                 // truth.json
+  Intrinsics intrinsics;            // undistorted pinhole
+  std::vector<TruthLight> lights;
+  std::vector<TruthView> views;
+  double flash_intensity_w_per_sr = 0;  // mean of RGB
+  double exposure = 1;              // sensor.exposure
+};
+
+// Reads and checks truth.json (schema relit.synth_truth/1). Throws
+// relit::Error when it has no "eval" set or an image it lists is missing
+// (naming the file).
+TruthEvalSet ReadTruthEvalSet(const std::string& truth_json);
+
+// The renderer's light for a GT light: strengths times `unit_factor`
+// (flash_cue / flash_true).
+CueLight ToCueLight(const TruthLight& light, double unit_factor);
+
+// SSIM (Wang et al. 2004: 11x11 Gaussian window, sigma 1.5, K1 0.01, K2 0.03)
+// of premultiplied RGB `predicted` against `reference_rgb` x `matte`, in
+// linear values with dynamic range L = 1 (as PSNR's peak), per RGB channel
+// and averaged, on the bounding box of the foreground (matte >= 0.5).
+// NaN when there is no foreground.
+double ForegroundSsim(const Image& predicted, const Image& reference_rgb, const Image& matte);
+
+struct EvalImageResult {
+  std::string view, light, light_type, method;
+  ImageMetrics metrics;
+  double ssim = 0;
+  std::string render_png, error_png, reference_png;  // relative to OUT; empty without images
+};
+
+// Writes OUT/eval.json and OUT/eval.md (eval_report.cc). `header` holds the
+// fields besides the metrics (methods, light unit, options, timings).
+void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResult>& results,
+                     const std::vector<std::string>& methods, nlohmann::json header);
+
+// PNG helpers (eval_report.cc): premultiplied RGBA over grey, sRGB; GT RGB
+// x matte over the same grey; |pred - GT x matte| x scale (linear, clipped).
+void WriteRenderPng(const std::string& path, const Image& rgba);
+void WriteReferencePng(const std::string& path, const Image& reference_rgb, const Image& matte);
+void WriteErrorPng(const std::string& path, const Image& rgba, const Image& reference_rgb, const Image& matte,
+                   double scale);
+
+struct EvalSummary {
+  std::string out_dir;
+  int images = 0;                   // (view, light) pairs
+  std::vector<std::string> methods;
+};
+
+// Scores `workspace` against `truth_json` into `out_dir` (atomically).
+// `render` gives the default samples per pixel.
+EvalSummary RunEval(const std::string& workspace, const std::string& truth_json, const std::string& out_dir,
+                    const EvalOptions& options, const RenderStageOptions& render, RunRecord& record);
+
+}  // namespace relit::relight

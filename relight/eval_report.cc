@@ -1,0 +1,227 @@
+// eval's outputs: SSIM, the per-type tables (eval.json, eval.md) and PNGs.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+
+#include <opencv2/imgproc.hpp>
+#include <opencv2/quality/qualityssim.hpp>
+#include <spdlog/fmt/fmt.h>
+
+#include "core/atomic_output.h"
+#include "core/color.h"
+#include "core/error.h"
+#include "core/json_file.h"
+#include "relight/eval.h"
+
+namespace relit::relight {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr float kGreySrgb = 64.0f / 255.0f;  // the render stage's MP4 background (0x404040)
+
+// Light types in table order; others (none today) follow in order of appearance.
+std::vector<std::string> LightTypes(const std::vector<EvalImageResult>& results) {
+  std::vector<std::string> types;
+  for (const std::string t : {"point", "directional", "environment"}) {
+    if (std::any_of(results.begin(), results.end(), [&](const EvalImageResult& r) { return r.light_type == t; })) {
+      types.push_back(t);
+    }
+  }
+  for (const EvalImageResult& r : results) {
+    if (std::find(types.begin(), types.end(), r.light_type) == types.end()) types.push_back(r.light_type);
+  }
+  return types;
+}
+
+struct Pooled {
+  ImageMetrics metrics;
+  double ssim = std::numeric_limits<double>::quiet_NaN();  // mean over images with a foreground
+  int images = 0;
+};
+
+// `light_type` "all" pools every light.
+Pooled Pool(const std::vector<EvalImageResult>& results, const std::string& method, const std::string& light_type) {
+  std::vector<ImageMetrics> metrics;
+  double ssim_sum = 0;
+  int ssim_count = 0;
+  for (const EvalImageResult& r : results) {
+    if (r.method != method || (light_type != "all" && r.light_type != light_type)) continue;
+    metrics.push_back(r.metrics);
+    if (std::isfinite(r.ssim)) {
+      ssim_sum += r.ssim;
+      ++ssim_count;
+    }
+  }
+  Pooled p;
+  p.images = static_cast<int>(metrics.size());
+  if (!metrics.empty()) p.metrics = PoolMetrics(metrics);
+  if (ssim_count > 0) p.ssim = ssim_sum / ssim_count;
+  return p;
+}
+
+// JSON has no NaN/Inf: null instead.
+json Number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+json MetricsJson(const ImageMetrics& m, double ssim) {
+  return {{"psnr_db", Number(m.psnr_db)}, {"mae", Number(m.mae)},         {"mse", Number(m.mse)},
+          {"ssim", Number(ssim)},         {"alpha_mae", Number(m.alpha_mae)}, {"foreground_pixels", m.foreground_pixels}};
+}
+
+std::string Cell(const Pooled& p) {
+  if (p.images == 0) return "–";
+  return fmt::format("{:.2f} / {:.4f} / {:.3f}", p.metrics.psnr_db, p.metrics.mae, p.ssim);
+}
+
+}  // namespace
+
+double ForegroundSsim(const Image& predicted, const Image& reference_rgb, const Image& matte) {
+  RELIT_REQUIRE(predicted.channels() >= 4 && reference_rgb.channels() >= 3 && matte.channels() >= 1,
+                "ForegroundSsim: expected RGBA, RGB and a matte");
+  RELIT_REQUIRE(predicted.width() == reference_rgb.width() && predicted.height() == reference_rgb.height() &&
+                    matte.width() == predicted.width() && matte.height() == predicted.height(),
+                "ForegroundSsim: image sizes differ");
+  int x0 = predicted.width(), y0 = predicted.height(), x1 = -1, y1 = -1;
+  for (int y = 0; y < matte.height(); ++y) {
+    for (int x = 0; x < matte.width(); ++x) {
+      if (matte.at(x, y, 0) < 0.5f) continue;
+      x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x), y1 = std::max(y1, y);
+    }
+  }
+  if (x1 < 0) return std::numeric_limits<double>::quiet_NaN();
+  const int w = x1 - x0 + 1, h = y1 - y0 + 1;
+  // OpenCV's QualitySSIM fixes C1 = (0.01 * 255)^2 and C2 = (0.03 * 255)^2 for
+  // 8-bit data: scaling linear values by 255 makes the dynamic range L = 1.
+  cv::Mat a(h, w, CV_32FC3), b(h, w, CV_32FC3);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const float* p = predicted.pixel(x0 + x, y0 + y);
+      const float* r = reference_rgb.pixel(x0 + x, y0 + y);
+      const float m = matte.at(x0 + x, y0 + y, 0);
+      for (int c = 0; c < 3; ++c) {
+        a.at<cv::Vec3f>(y, x)[c] = 255.0f * p[c];
+        b.at<cv::Vec3f>(y, x)[c] = 255.0f * r[c] * m;
+      }
+    }
+  }
+  const cv::Scalar ssim = cv::quality::QualitySSIM::compute(b, a, cv::noArray());
+  return (ssim[0] + ssim[1] + ssim[2]) / 3.0;
+}
+
+void WriteRenderPng(const std::string& path, const Image& rgba) {
+  const float grey = SrgbToLinear(kGreySrgb);
+  Image png(rgba.width(), rgba.height(), {"R", "G", "B"});
+  for (int y = 0; y < rgba.height(); ++y) {
+    for (int x = 0; x < rgba.width(); ++x) {
+      const float* p = rgba.pixel(x, y);
+      const float a = std::clamp(p[3], 0.0f, 1.0f);
+      for (int c = 0; c < 3; ++c) png.at(x, y, c) = LinearToSrgb(std::clamp(p[c] + (1 - a) * grey, 0.0f, 1.0f));
+    }
+  }
+  WriteImage(path, png, PixelStorage::kUint8);
+}
+
+void WriteReferencePng(const std::string& path, const Image& reference_rgb, const Image& matte) {
+  Image rgba(reference_rgb.width(), reference_rgb.height(), {"R", "G", "B", "A"});
+  for (int y = 0; y < rgba.height(); ++y) {
+    for (int x = 0; x < rgba.width(); ++x) {
+      const float m = std::clamp(matte.at(x, y, 0), 0.0f, 1.0f);
+      for (int c = 0; c < 3; ++c) rgba.at(x, y, c) = reference_rgb.at(x, y, c) * m;
+      rgba.at(x, y, 3) = m;
+    }
+  }
+  WriteRenderPng(path, rgba);
+}
+
+void WriteErrorPng(const std::string& path, const Image& rgba, const Image& reference_rgb, const Image& matte,
+                   double scale) {
+  Image png(rgba.width(), rgba.height(), {"R", "G", "B"});
+  for (int y = 0; y < rgba.height(); ++y) {
+    for (int x = 0; x < rgba.width(); ++x) {
+      const float m = matte.at(x, y, 0);
+      for (int c = 0; c < 3; ++c) {
+        const float error = std::abs(rgba.at(x, y, c) - reference_rgb.at(x, y, c) * m);
+        png.at(x, y, c) = std::clamp(static_cast<float>(scale) * error, 0.0f, 1.0f);
+      }
+    }
+  }
+  WriteImage(path, png, PixelStorage::kUint8);
+}
+
+void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResult>& results,
+                     const std::vector<std::string>& methods, json header) {
+  const std::vector<std::string> types = LightTypes(results);
+  json summary = json::array();
+  for (const std::string& method : methods) {
+    std::vector<std::string> columns = types;
+    columns.push_back("all");
+    for (const std::string& type : columns) {
+      const Pooled p = Pool(results, method, type);
+      json row = {{"method", method}, {"light_type", type}, {"images", p.images}};
+      row.update(MetricsJson(p.metrics, p.ssim));
+      summary.push_back(row);
+    }
+  }
+  json images = json::array();
+  for (const EvalImageResult& r : results) {
+    json row = {{"view", r.view}, {"light", r.light}, {"light_type", r.light_type}, {"method", r.method}};
+    row.update(MetricsJson(r.metrics, r.ssim));
+    if (!r.render_png.empty()) {
+      row["render_png"] = r.render_png;
+      row["error_png"] = r.error_png;
+      row["reference_png"] = r.reference_png;
+    }
+    images.push_back(row);
+  }
+  header["light_types"] = types;
+  header["metrics"] =
+      "linear radiance on the GT foreground (alpha >= 0.5), prediction (premultiplied) against GT x alpha: MAE, "
+      "PSNR (peak 1), alpha MAE over the whole image (relight/metrics.h); SSIM per RGB channel, averaged, on the "
+      "foreground's bounding box, linear values, L = 1 (Gaussian 11x11, sigma 1.5). Per light type: MAE/MSE/alpha "
+      "pooled over foreground pixels, PSNR from the pooled MSE, SSIM the mean over images.";
+  header["summary"] = summary;
+  header["images"] = images;
+  WriteJsonFile((fs::path(out_dir) / "eval.json").string(), "eval", 1, header);
+
+  // eval.md: method x light type, "PSNR / MAE / SSIM", plus alpha MAE.
+  std::string md = "# Evaluation against ground truth\n\n";
+  md += fmt::format("Truth: `{}`; {} views x {} lights. Cells: PSNR (dB) / MAE / SSIM, linear, on the GT "
+                    "foreground (see eval.json \"metrics\").\n\n",
+                    header.value("truth", std::string()), header.value("views", 0), header.value("lights", 0));
+  md += "| method |";
+  for (const std::string& t : types) md += " " + t + " |";
+  md += " all | alpha MAE |\n|---|";
+  for (size_t i = 0; i < types.size() + 2; ++i) md += "---|";
+  md += "\n";
+  for (const std::string& method : methods) {
+    md += "| " + method + " |";
+    for (const std::string& t : types) md += " " + Cell(Pool(results, method, t)) + " |";
+    const Pooled all = Pool(results, method, "all");
+    md += " " + Cell(all) + " | " + fmt::format("{:.4f}", all.metrics.alpha_mae) + " |\n";
+  }
+  md += "\n## Per image (PSNR dB / MAE / SSIM)\n\n| view | light |";
+  for (const std::string& m : methods) md += " " + m + " |";
+  md += "\n|---|---|";
+  for (size_t i = 0; i < methods.size(); ++i) md += "---|";
+  md += "\n";
+  for (size_t i = 0; i < results.size(); i += methods.size()) {
+    md += "| " + results[i].view + " | " + results[i].light + " |";
+    for (size_t k = 0; k < methods.size() && i + k < results.size(); ++k) {
+      const EvalImageResult& r = results[i + k];
+      md += fmt::format(" {:.2f} / {:.4f} / {:.3f} |", r.metrics.psnr_db, r.metrics.mae, r.ssim);
+    }
+    md += "\n";
+  }
+  if (header.contains("light_unit")) {
+    md += fmt::format("\nLight unit: GT strengths x {:.4g} (cue flash {:.4g} / true flash {:.4g} W/sr), exposure {:.4g}.\n",
+                      header["light_unit"].value("factor", 0.0), header["light_unit"].value("cue_flash_intensity", 0.0),
+                      header["light_unit"].value("true_flash_intensity_w_per_sr", 0.0),
+                      header["light_unit"].value("exposure", 0.0));
+  }
+  AtomicWriteFile(fs::path(out_dir) / "eval.md", md);
+}
+
+}  // namespace relit::relight

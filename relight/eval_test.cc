@@ -1,0 +1,309 @@
+// `relit-relight eval` on a small trained ground-truth workspace: a short
+// training of the stage test's workspace, and a truth.json + eval set for it
+// written by relit-synth's own truth writer (the tiny capture plan's held-out
+// views and lights, at the workspace's 160 x 120) and rendered with the
+// synth scene (board and table included) by the path tracer. Plus the
+// errors: missing eval image, truth without "eval", untrained workspace.
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "core/error.h"
+#include "core/image.h"
+#include "core/json_file.h"
+#include "core/options.h"
+#include "core/render/envmaps.h"
+#include "core/render/path_tracer.h"
+#include "core/run_record.h"
+#include "relight/cue_stage.h"
+#include "relight/eval.h"
+#include "relight/plan.h"
+#include "relight/relight_options.h"
+#include "relight/test_workspace.h"
+#include "relight/train_stage.h"
+#include "tools/synth/capture_plan.h"
+#include "tools/synth/scene.h"
+#include "tools/synth/synth_options.h"
+#include "tools/synth/truth.h"
+
+namespace relit::relight {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+double Seconds(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+constexpr int kWidth = 160, kHeight = 120;
+
+// truth.json (relit-synth's writer) for the test workspace's capture plan,
+// eval intrinsics scaled to the workspace size. With `render_images`, the
+// eval set is path-traced as relit-synth does; otherwise 1x1 placeholders.
+std::string WriteTruth(const std::string& dir, bool render_images) {
+  synth::SynthOptions options = synth::SynthOptions::ForSize("tiny");  // as MakeTestWorkspace
+  options.out = dir;
+  const synth::SynthScene scene = synth::BuildScene("spot", options.board, synth::DefaultAssetsDir());
+  synth::CapturePlan plan = synth::MakeCapturePlan(options, scene);
+  plan.eval_intrinsics = plan.eval_intrinsics.Scaled(kWidth, kHeight);
+  const std::string truth = dir + "/truth.json";
+  WriteJsonFile(truth, synth::kTruthKind, synth::kTruthVersion, synth::MakeTruthJson(options, scene, plan, true));
+  const Image sky = render::MakeSkyMap(options.envmap_width_px, plan.sun_elevation_rad, plan.sun_azimuth_rad);
+  const Image studio = render::MakeStudioMap(options.envmap_width_px);
+  fs::create_directories(dir + "/eval/envmaps");
+  WriteImage(dir + "/" + synth::EnvmapPath("sky"), sky, PixelStorage::kFloat);
+  WriteImage(dir + "/" + synth::EnvmapPath("studio"), studio, PixelStorage::kFloat);
+  render::Scene render_scene;
+  scene.AddTo(&render_scene);
+  bool committed = false;
+  for (size_t v = 0; v < plan.eval_views.size(); ++v) {
+    fs::create_directories(dir + "/eval/" + plan.eval_views[v].name);
+    for (size_t l = 0; l < plan.eval_lights.size(); ++l) {
+      const synth::EvalLight& light = plan.eval_lights[l];
+      const std::string image = dir + "/" + synth::EvalImagePath(plan.eval_views[v].name, light.name);
+      const std::string alpha = dir + "/" + synth::EvalAlphaPath(plan.eval_views[v].name);
+      if (!render_images) {
+        WriteImage(image, Image(1, 1, 3));
+        WriteImage(alpha, Image(1, 1, 1));
+        continue;
+      }
+      render_scene.ClearLights();
+      if (light.type == "point") {
+        render_scene.AddLight(render::PointLight{light.position_world.cast<float>(), light.rgb.cast<float>().array()});
+      } else if (light.type == "directional") {
+        render_scene.AddLight(
+            render::DirectionalLight{light.direction_to_light.cast<float>(), light.rgb.cast<float>().array()});
+      } else {
+        render_scene.SetEnvironment(render::EnvironmentLight(light.envmap == "sky" ? sky : studio));
+      }
+      if (!committed) render_scene.Commit();
+      committed = true;
+      render::RenderOptions ro;
+      ro.samples_per_pixel = 16;
+      ro.max_depth = options.max_depth;
+      ro.seed = 100 + v * 10 + l;
+      ro.alpha_object_ids = scene.ForegroundIds();
+      const render::RenderResult result =
+          render::RenderImage(render_scene, Camera(plan.eval_intrinsics, plan.eval_views[v].cam_from_world), ro);
+      WriteImage(image, result.radiance);
+      if (l == 0) WriteImage(alpha, result.alpha);
+    }
+  }
+  return truth;
+}
+
+int RunCli(std::vector<std::string> args) {
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  return RunRelight(static_cast<int>(argv.size()), argv.data());
+}
+
+class EvalTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = (fs::temp_directory_path() / ("relit_eval_" + std::to_string(::getpid()))).string();
+    auto start = std::chrono::steady_clock::now();
+    testing::TestWorkspaceOptions workspace;
+    workspace.frames = 16;
+    workspace.samples_per_pixel = 8;
+    testing::MakeTestWorkspace(dir_ + "/ws", workspace);
+    RunRecord record("test");
+    CueStageOptions cues;
+    cues.samples_per_pixel = 4;
+    RunCueStage(dir_ + "/ws", cues, record);
+    DatasetOptions dataset;
+    dataset.holdout_every = 4;
+    PartitionLayoutOptions layout;
+    layout.layout = "single";
+    RunPlanStage(dir_ + "/ws", dataset, layout, record);
+    truth_ = WriteTruth(dir_ + "/capture", true);
+    std::printf("workspace + cues + truth: %.1f s\n", Seconds(start));
+    start = std::chrono::steady_clock::now();
+    ModelOptions model;
+    model.texture_resolution_px = 128;
+    model.channels_per_basis = 4;
+    model.ngf = 16;
+    model.n_blocks = 3;
+    model.mask_ngf = 8;
+    model.mask_n_blocks = 2;
+    TrainStageOptions train;
+    train.steps = kSteps;
+    train.checkpoint_every = kSteps;
+    train.validate_every = 0;
+    train.optimizer.crop_px = 64;
+    train.optimizer.learning_rate = 5e-4;  // texture 2e-2 (default); docs/relight.md "Learning check"
+    train.optimizer.seed = 5;
+    train.optimizer.threads = 2;
+    RunTrainStage(dir_ + "/ws", 0, model, train, true, record);
+    std::printf("%d training steps: %.1f s\n", kSteps, Seconds(start));
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+  static constexpr int kSteps = 200;
+  static std::string dir_, truth_;
+};
+std::string EvalTest::dir_, EvalTest::truth_;
+
+const json& Row(const json& eval, const std::string& method, const std::string& type) {
+  for (const json& row : eval["summary"]) {
+    if (row["method"] == method && row["light_type"] == type) return row;
+  }
+  static const json none;
+  ADD_FAILURE() << "no summary row for " << method << " / " << type;
+  return none;
+}
+
+TEST_F(EvalTest, ScoresModelAndCuesOnlyPerLightTypeAndWritesImages) {
+  const auto start = std::chrono::steady_clock::now();
+  // Eval cues at the training cues' 4 spp: the networks' output shifts with the cues' noise level.
+  const std::string config = dir_ + "/relight.yaml";
+  std::ofstream(config) << "render: {samples_per_pixel: 16}\neval: {samples_per_pixel: 4}\n";
+  ASSERT_EQ(RunCli({"relit-relight", "eval", "--workspace", dir_ + "/ws", "--config", config, "--truth", truth_,
+                    "--log-level", "warn"}),
+            0);
+  std::printf("eval: %.1f s\n", Seconds(start));
+  const fs::path out = dir_ + "/ws/relight/eval";
+  const json eval = ReadJsonFile((out / "eval.json").string(), "eval", 1);
+  for (const char* file : {"eval.md", "run.json"}) EXPECT_TRUE(fs::exists(out / file)) << file;
+  EXPECT_TRUE(fs::exists(dir_ + "/ws/relight/logs/eval.log"));
+  // No augmented model: before/after augmentation is not a comparison here.
+  EXPECT_EQ(eval["methods"], json({"model", "cues_only"}));
+  EXPECT_EQ(eval["skipped_methods"], json({"model_point_light"}));
+  EXPECT_NEAR(eval["light_unit"]["factor"].get<double>(), 1.0 / 0.45, 1e-9);  // cue flash 1, tiny flash 0.45 W/sr
+  // tiny: 2 views x (2 point + 1 directional + 2 environment) lights, 2 methods.
+  EXPECT_EQ(eval["views"], 2);
+  EXPECT_EQ(eval["lights"], 5);
+  ASSERT_EQ(eval["images"].size(), 20u);
+  for (const json& image : eval["images"]) {
+    for (const char* key : {"psnr_db", "mae", "ssim", "alpha_mae"}) {
+      ASSERT_TRUE(image[key].is_number()) << key << " " << image.dump();
+      EXPECT_TRUE(std::isfinite(image[key].get<double>()));
+    }
+    EXPECT_GT(image["foreground_pixels"].get<int>(), 300);
+    for (const char* key : {"render_png", "error_png", "reference_png"}) {
+      EXPECT_TRUE(fs::exists(out / image[key].get<std::string>())) << image[key];
+    }
+  }
+  const Image error = ReadImage((out / eval["images"][0]["error_png"].get<std::string>()).string());
+  EXPECT_EQ(error.width(), kWidth);
+  for (const std::string method : {"model", "cues_only"}) {
+    for (const std::string type : {"point", "directional", "environment", "all"}) {
+      const json& row = Row(eval, method, type);
+      EXPECT_EQ(row["images"].get<int>(), type == "point" || type == "environment" ? 4 : type == "all" ? 10 : 2);
+      std::printf("%-10s %-12s PSNR %6.2f dB  MAE %.4f  SSIM %.3f  alpha MAE %.4f\n", method.c_str(), type.c_str(),
+                  row["psnr_db"].get<double>(), row["mae"].get<double>(), row["ssim"].get<double>(),
+                  row["alpha_mae"].get<double>());
+    }
+  }
+  // Measured under point lights (200 steps, seed 5; docs/relight.md
+  // "Evaluation"): model 16.9 dB / MAE 0.084 / SSIM 0.73 / alpha MAE 0.009,
+  // cues_only 17.3 dB / 0.084 / 0.63. At this budget the model matches the
+  // cue regression in PSNR and MAE and beats it in SSIM; asserted with
+  // margins. The cue regression is only this close to the truth when the
+  // light unit is right (GT light x flash_cue / flash_true).
+  const json& model_point = Row(eval, "model", "point");
+  const json& cues_point = Row(eval, "cues_only", "point");
+  EXPECT_GT(cues_point["psnr_db"].get<double>(), 15.5);
+  EXPECT_GT(model_point["psnr_db"].get<double>(), 15.0);
+  EXPECT_GT(model_point["psnr_db"].get<double>(), cues_point["psnr_db"].get<double>() - 1.5);
+  EXPECT_LT(model_point["mae"].get<double>(), 1.15 * cues_point["mae"].get<double>());
+  EXPECT_GT(model_point["ssim"].get<double>(), cues_point["ssim"].get<double>() + 0.04);
+  EXPECT_LT(model_point["alpha_mae"].get<double>(), 0.03);
+  const std::string md = [&] {
+    std::ifstream in(out / "eval.md");
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  }();
+  EXPECT_NE(md.find("| method | point | directional | environment | all | alpha MAE |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| cues_only |"), std::string::npos);
+}
+
+TEST(EvalErrors, MissingEvalImageIsNamed) {
+  const std::string dir = (fs::temp_directory_path() / ("relit_eval_missing_" + std::to_string(::getpid()))).string();
+  const std::string truth = WriteTruth(dir, false);
+  EXPECT_EQ(ReadTruthEvalSet(truth).views.size(), 2u);  // complete: reads
+  const std::string missing = dir + "/eval/view_01/directional_00.exr";
+  ASSERT_TRUE(fs::remove(missing));
+  try {
+    ReadTruthEvalSet(truth);
+    ADD_FAILURE() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(missing), std::string::npos) << e.what();
+  }
+  // No "eval" at all.
+  json body = ReadJsonFile(truth, synth::kTruthKind, synth::kTruthVersion);
+  body.erase("eval");
+  WriteJsonFile(truth, synth::kTruthKind, synth::kTruthVersion, body);
+  try {
+    ReadTruthEvalSet(truth);
+    ADD_FAILURE() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no \"eval\" set"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+TEST(EvalErrors, UntrainedWorkspaceSaysWhatToRun) {
+  const std::string dir = (fs::temp_directory_path() / ("relit_eval_untrained_" + std::to_string(::getpid()))).string();
+  fs::create_directories(dir + "/ws");
+  const std::string truth = WriteTruth(dir + "/capture", false);
+  try {
+    RunRecord record("test");
+    RunEval(dir + "/ws", truth, dir + "/out", EvalOptions(), RenderStageOptions(), record);
+    ADD_FAILURE() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("is not trained"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir + "/out"));
+  fs::remove_all(dir);
+}
+
+TEST(EvalOptionsTest, UnknownKeysAndMethodsAreErrors) {
+  RelightOptions options;
+  OptionsReader good = OptionsReader::FromString("eval: {methods: [cues_only, model], max_views: 1}\n");
+  options.Read(good);
+  EXPECT_EQ(options.eval.methods, (std::vector<std::string>{"cues_only", "model"}));
+  EXPECT_EQ(options.eval.max_views, 1);
+  RelightOptions other;
+  OptionsReader typo = OptionsReader::FromString("eval: {metods: [model]}\n");
+  EXPECT_THROW(other.Read(typo), Error);
+  EvalOptions bad;
+  bad.methods = {"model", "nerf"};
+  EXPECT_THROW(bad.Check(), Error);
+}
+
+// SSIM: 1 for identical images, lower with noise, NaN without foreground;
+// the background outside the matte's bounding box does not count.
+TEST(ForegroundSsimTest, KnownAnswers) {
+  Image reference(64, 48, 3), matte(64, 48, 1), predicted(64, 48, 4);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0.1f, 0.9f);
+  for (int y = 0; y < 48; ++y) {
+    for (int x = 0; x < 64; ++x) {
+      const bool inside = x >= 16 && x < 48 && y >= 8 && y < 40;
+      matte.at(x, y, 0) = inside ? 1.0f : 0.0f;
+      for (int c = 0; c < 3; ++c) {
+        reference.at(x, y, c) = 0.2f + 0.3f * std::sin(0.3f * x + c) * std::cos(0.2f * y);
+        predicted.at(x, y, c) = inside ? reference.at(x, y, c) : u(rng);  // junk outside the box
+      }
+      predicted.at(x, y, 3) = matte.at(x, y, 0);
+    }
+  }
+  EXPECT_NEAR(ForegroundSsim(predicted, reference, matte), 1.0, 1e-5);
+  Image noisy = predicted;
+  std::normal_distribution<float> noise(0.0f, 0.1f);
+  for (int y = 8; y < 40; ++y)
+    for (int x = 16; x < 48; ++x)
+      for (int c = 0; c < 3; ++c) noisy.at(x, y, c) += noise(rng);
+  const double ssim = ForegroundSsim(noisy, reference, matte);
+  EXPECT_LT(ssim, 0.9);
+  EXPECT_GT(ssim, 0.1);
+  EXPECT_TRUE(std::isnan(ForegroundSsim(predicted, reference, Image(64, 48, 1))));
+}
+
+}  // namespace
+}  // namespace relit::relight

@@ -1,0 +1,155 @@
+#include "relight/train_loop.h"
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "core/atomic_output.h"
+#include "core/error.h"
+#include "core/progress.h"
+#include "relight/checkpoint.h"
+#include "relight/dataset.h"
+
+namespace relit::relight {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+std::atomic<int> g_signal{0};
+extern "C" void OnStopSignal(int signal) { g_signal.store(signal); }
+
+// Installs SIGINT/SIGTERM handlers for the scope (training checkpoints and
+// stops cleanly instead of dying mid-step).
+class StopSignals {
+ public:
+  StopSignals() {
+    g_signal.store(0);
+    previous_int_ = std::signal(SIGINT, OnStopSignal);
+    previous_term_ = std::signal(SIGTERM, OnStopSignal);
+  }
+  ~StopSignals() {
+    std::signal(SIGINT, previous_int_);
+    std::signal(SIGTERM, previous_term_);
+  }
+  int received() const { return g_signal.load(); }
+
+ private:
+  void (*previous_int_)(int);
+  void (*previous_term_)(int);
+};
+
+}  // namespace
+
+int FrameOrder::At(int64_t step) {
+  const int64_t epoch = step / count_;
+  if (epoch != epoch_) {
+    auto generator = at::make_generator<at::CPUGeneratorImpl>(seed_ * 7919 + static_cast<uint64_t>(epoch) + 1);
+    permutation_ = torch::randperm(count_, generator, torch::kLong);
+    epoch_ = epoch;
+  }
+  return static_cast<int>(permutation_[step % count_].item<int64_t>());
+}
+
+Batch Concatenate(const std::vector<const Batch*>& frames) {
+  if (frames.size() == 1) return *frames[0];
+  auto cat = [&](auto member) {
+    std::vector<torch::Tensor> parts;
+    for (const Batch* b : frames) parts.push_back(b->*member);
+    return torch::cat(parts, 0);
+  };
+  Batch batch;
+  batch.uv = cat(&Batch::uv);
+  batch.uv_derivatives = cat(&Batch::uv_derivatives);
+  batch.coverage = cat(&Batch::coverage);
+  batch.cues = cat(&Batch::cues);
+  batch.target_rgb = cat(&Batch::target_rgb);
+  batch.target_matte = cat(&Batch::target_matte);
+  return batch;
+}
+
+ImageMetrics Validate(DnlModel& model, const std::vector<Batch>& frames) {
+  std::vector<ImageMetrics> metrics;
+  for (const Batch& frame : frames) {
+    const Image predicted = RenderFrame(model, frame);
+    const Image target = TensorToImage(frame.target_rgb, {"R", "G", "B"});
+    const Image matte = TensorToImage(frame.target_matte, {"A"});
+    metrics.push_back(CompareToReference(predicted, target, matte));
+  }
+  return PoolMetrics(metrics);
+}
+
+void TruncateLog(const fs::path& log, int64_t step) {
+  if (!fs::exists(log)) return;
+  std::ifstream in(log);
+  std::ostringstream kept;
+  std::string line;
+  while (std::getline(in, line)) {
+    const json j = json::parse(line, nullptr, false);
+    if (!j.is_discarded() && j.contains("step") && j["step"].get<int64_t>() <= step) kept << line << "\n";
+  }
+  AtomicWriteFile(log, kept.str());
+}
+
+TrainLoopResult RunTrainLoop(Trainer& trainer, const std::function<Batch(int64_t)>& next_batch,
+                             const std::vector<Batch>& validation, const TrainLoopSettings& settings,
+                             const std::function<std::string(int64_t)>& tag) {
+  TrainLoopResult result;
+  std::ofstream log(settings.log_path, std::ios::app);
+  StopSignals signals;
+  const int64_t total = settings.total_steps;
+  Progress progress(settings.label, total - std::min(trainer.step(), total));
+  const auto start = std::chrono::steady_clock::now();
+  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  auto validate = [&](int64_t step) {
+    if (validation.empty()) return;
+    result.validation = Validate(trainer.model(), validation);
+    const ImageMetrics& m = result.validation;
+    log << json{{"step", step}, {"val_psnr_db", m.psnr_db}, {"val_mae", m.mae}, {"val_alpha_mae", m.alpha_mae}}.dump()
+        << "\n" << std::flush;
+  };
+  double loss_sum = 0;
+  int loss_count = 0;
+  while (trainer.step() < total) {
+    const std::string kind = tag ? tag(trainer.step()) : std::string();
+    const Losses losses = trainer.Step(next_batch(trainer.step()));
+    const int64_t step = trainer.step();
+    const double loss = losses.total.item<double>();
+    RELIT_REQUIRE(std::isfinite(loss), settings.label, ": the loss became ", loss, " at step ", step,
+                  "; lower train.learning_rate or check the input frames");
+    loss_sum += loss;
+    ++loss_count;
+    result.final_loss = loss;
+    if (step % settings.log_every == 0 || step == total) {
+      json line = {{"step", step}, {"time_s", elapsed()}, {"loss", loss_sum / loss_count},
+                   {"rgb_loss", losses.rgb.item<double>()}, {"mask_loss", losses.mask.item<double>()}};
+      if (!kind.empty()) line["batch"] = kind;
+      log << line.dump() << "\n" << std::flush;
+      char status[64];
+      std::snprintf(status, sizeof(status), "loss %.4f", loss_sum / loss_count);
+      progress.SetStatus(status);
+      loss_sum = 0;
+      loss_count = 0;
+    }
+    if (settings.validate_every > 0 && step % settings.validate_every == 0 && step != total) validate(step);
+    progress.Advance();
+    if (step % settings.checkpoint_every == 0 || step == total || signals.received() != 0) {
+      SaveCheckpoint(settings.checkpoint_dir, trainer);
+    }
+    if (signals.received() != 0) {
+      result.interrupted = true;
+      result.signal = signals.received();
+      break;
+    }
+  }
+  progress.Finish();
+  if (!result.interrupted) validate(trainer.step());
+  return result;
+}
+
+}  // namespace relit::relight

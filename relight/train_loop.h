@@ -1,0 +1,67 @@
+// The optimisation loop shared by `train` (point-light frames) and
+// `augment` (fine-tuning on captured + augmented frames): steps, log lines,
+// validation, checkpoints, and a clean stop on SIGINT/SIGTERM.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <torch/torch.h>
+
+#include "relight/metrics.h"
+#include "relight/model.h"
+
+namespace relit::relight {
+
+// Frame order: a fresh permutation per epoch, a pure function of (seed,
+// epoch), so a resumed run visits the same frames as an uninterrupted one.
+class FrameOrder {
+ public:
+  FrameOrder(int count, uint64_t seed) : count_(count), seed_(seed) {}
+  int At(int64_t step);
+
+ private:
+  int count_;
+  uint64_t seed_;
+  int64_t epoch_ = -1;
+  torch::Tensor permutation_;
+};
+
+// Frames of equal size stacked along the batch dimension.
+Batch Concatenate(const std::vector<const Batch*>& frames);
+
+// Whole-frame metrics of `model` on frames with targets, pooled.
+ImageMetrics Validate(DnlModel& model, const std::vector<Batch>& frames);
+
+// Keeps the log lines of steps <= `step` (the checkpoint a resumed run starts from).
+void TruncateLog(const std::filesystem::path& log, int64_t step);
+
+struct TrainLoopSettings {
+  std::string label;                      // progress bar and messages
+  int64_t total_steps = 0;                // train until trainer.step() == total_steps
+  int checkpoint_every = 250;
+  int validate_every = 0;                 // 0 = only at the end
+  int log_every = 10;
+  std::filesystem::path checkpoint_dir;
+  std::filesystem::path log_path;         // appended to
+};
+
+struct TrainLoopResult {
+  bool interrupted = false;
+  int signal = 0;
+  double final_loss = 0;
+  ImageMetrics validation;                // at the end (zeros without validation frames)
+};
+
+// Runs `trainer` to settings.total_steps on the batches `next_batch(step)`
+// gives (step = the trainer's step before the update). `tag(step)` may name
+// the kind of batch in log lines ("" = no tag).
+TrainLoopResult RunTrainLoop(Trainer& trainer, const std::function<Batch(int64_t)>& next_batch,
+                             const std::vector<Batch>& validation, const TrainLoopSettings& settings,
+                             const std::function<std::string(int64_t)>& tag = {});
+
+}  // namespace relit::relight
