@@ -292,10 +292,7 @@ Batch LoadAugmentedFrame(const fs::path& stem) {
   const Image target = ReadImage(stem.string() + ".target.exr");
   RELIT_REQUIRE(target.channels() == 4 && target.width() == batch.width() && target.height() == batch.height(),
                 stem.string(), ".target.exr: expected RGBA of the cue frame's size; delete the augment folder");
-  const auto hwc = torch::from_blob(const_cast<float*>(target.data().data()),
-                                    {target.height(), target.width(), 4}, torch::kFloat32);
-  batch.target_rgb = hwc.slice(2, 0, 3).permute({2, 0, 1}).unsqueeze(0).contiguous();
-  batch.target_matte = hwc.slice(2, 3, 4).permute({2, 0, 1}).unsqueeze(0).contiguous().clamp(0.0, 1.0);
+  AttachTargets(batch, target, target, 3);  // RGB + matte in A
   return batch;
 }
 
@@ -374,7 +371,7 @@ AugmentStageResult RunAugmentStage(const std::string& workspace, int partition, 
   std::vector<fs::path> stems_all;
   {
     auto timer = record.Time("augment_frames");
-    std::vector<AugmentMap> maps;
+    const std::vector<AugmentMap> maps = LoadMaps(options, irradiance);  // names even when frames are reused
     std::optional<RelitRenderer> renderer;
     std::vector<Eigen::Vector3d> fixed_directions;
     std::map<int, std::vector<Eigen::Vector3d>> cell_weights;  // "all" mode, per map index
@@ -383,7 +380,6 @@ AugmentStageResult RunAugmentStage(const std::string& workspace, int partition, 
       const PlanFrame& frame = plan.frames[views[v]];
       // Maps drawn for this view: a pure function of (seed, view).
       render::Rng rng(options.seed, 7000 + static_cast<uint64_t>(views[v]));
-      if (maps.empty()) maps = LoadMaps(options, irradiance);
       std::vector<int> order(maps.size());
       for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
       const int drawn = std::min<int>(options.maps_per_view, maps.size());

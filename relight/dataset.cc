@@ -43,9 +43,14 @@ Batch LoadPlanFrame(const std::string& workspace, const PlanFrame& frame) {
                 "), image ", frame.image, " (", target.width(), "x", target.height(), ") and matte ", frame.matte,
                 " (", matte.width(), "x", matte.height(), ") must have the same size; rerun `relit-relight cues`");
   Batch batch = CueFrameToBatch(cues);
-  batch.target_rgb = Channels(target, 0, 3).permute({2, 0, 1}).unsqueeze(0).contiguous();
-  batch.target_matte = Channels(matte, 0, 1).permute({2, 0, 1}).unsqueeze(0).contiguous().clamp(0.0, 1.0);
+  AttachTargets(batch, target, matte);
   return batch;
+}
+
+void AttachTargets(Batch& batch, const Image& rgb, const Image& matte, int matte_channel) {
+  batch.target_rgb = Channels(rgb, 0, 3).permute({2, 0, 1}).unsqueeze(0).contiguous();
+  batch.target_matte =
+      Channels(matte, matte_channel, 1).permute({2, 0, 1}).unsqueeze(0).contiguous().clamp(0.0, 1.0);
 }
 
 Image TensorToImage(const torch::Tensor& chw, std::vector<std::string> names) {

@@ -16,6 +16,11 @@ namespace relit::relight {
 // A Batch (B = 1, float32, CPU) from a cue frame, without targets.
 Batch CueFrameToBatch(const Image& cue_frame);
 
+// Sets the batch's targets: channels 0-2 of `rgb` (linear radiance) and
+// channel `matte_channel` of `matte` (clamped to [0, 1]). Sizes must match
+// the batch (the caller checks and names the files).
+void AttachTargets(Batch& batch, const Image& rgb, const Image& matte, int matte_channel = 0);
+
 // A Batch with targets from plan frame `frame` of `workspace`. Throws
 // relit::Error naming the file when sizes disagree.
 Batch LoadPlanFrame(const std::string& workspace, const PlanFrame& frame);
