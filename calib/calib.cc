@@ -87,13 +87,16 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
   }
   std::vector<CaptureFrame> all = input.view;
   all.insert(all.end(), input.light.begin(), input.light.end());
+  all.insert(all.end(), input.geometry.begin(), input.geometry.end());  // optional geometry pass
+  const bool geometry_pass = !input.geometry.empty();
   std::vector<CalibFrame> frames;
   {
     auto timer = record.Time("detect");
     frames = DetectAll(options.workspace, all, detector, options.detect.threads, "detect board");
   }
   RequireBoardSeen(frames, options.board, detector, options.detect.min_corners);
-  for (const std::string device : {"view", "light"}) {
+  for (const std::string device : {"view", "light", "geometry"}) {
+    if (device == "geometry" && !geometry_pass) continue;
     report["detection"][device] = DetectionReport(frames, device, options.detect.min_corners);
   }
 
@@ -119,7 +122,7 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
   int board_posed = 0;
   for (const CalibFrame& f : frames) {
     BundleFrame b;
-    b.device = f.capture.device;
+    b.device = LensOf(f.capture.device);
     b.corner_ids = f.board.corner_ids;
     b.corners_px = f.board.corners_px;
     double rms = 0;
@@ -153,6 +156,14 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
     report["sfm"] = {{"ran", false}};
   }
   report["refine"] = StatsJson(stats);
+  if (geometry_pass) {
+    report["geometry"] = GeometryPassReport(frames, problem, posed_by_board, stats, report["sfm"],
+                                            options.detect.min_corners);
+    spdlog::info("geometry pass: {} of {} frames registered ({} by the board, {} in the COLMAP model), corner "
+                 "RMS {:.3f} px", report["geometry"]["registered"].get<int>(), input.geometry.size(),
+                 report["geometry"]["posed_by_board"].get<int>(), report["geometry"]["registered_by_sfm"].get<int>(),
+                 report["geometry"]["corner_rms_px"].get<double>());
+  }
 
   // 4. Checks of the result.
   for (size_t i = 0; i < frames.size(); ++i) {
@@ -178,7 +189,7 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
     if (!problem.frames[i].posed) continue;
     if (frames[i].capture.device == "light") {
       light_poses.push_back({frames[i].capture.time_s, problem.frames[i].cam_from_world});
-    } else {
+    } else if (frames[i].capture.device == "view") {  // the geometry pass gets no light
       view_frames.push_back({frames[i].capture.name, frames[i].capture.time_s});
       view_centres.push_back(problem.frames[i].cam_from_world.Inverse().translation);
     }
@@ -207,6 +218,7 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
   CamerasFile cameras;
   cameras.board = options.board;
   cameras.devices = problem.devices;
+  if (geometry_pass) cameras.devices["geometry"] = problem.devices.at(LensOf("geometry"));
   cameras.undistorted_view = PinholeFor(problem.devices.at("view"), options.undistort.alpha);
   std::vector<std::pair<std::string, std::string>> model_images;
   std::vector<Rigid3> model_poses;
@@ -225,6 +237,8 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
     if (c.device == "view") {
       f.image_linear = FrameFile("view_linear", c, "exr");
       f.image_8bit = FrameFile("view", c, "png");
+    } else if (c.device == "geometry") {  // 8-bit only: the proxy is built from it
+      f.image_8bit = FrameFile("geometry", c, "png");
     }
     cameras.frames.push_back(f);
     model_images.push_back({c.image.substr(c.image.find('/') + 1), c.device});
@@ -236,20 +250,24 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
     Progress progress("undistort", static_cast<int64_t>(cameras.frames.size()));
     std::map<std::string, const CaptureFrame*> by_name;
     for (const CaptureFrame& c : input.view) by_name[c.name] = &c;
+    for (const CaptureFrame& c : input.geometry) by_name[c.name] = &c;
     tbb::parallel_for(size_t(0), cameras.frames.size(), [&](size_t i) {
       const CalibratedFrame& f = cameras.frames[i];
-      if (f.device != "view") return;
+      if (f.device == "light") return;
       const CaptureFrame& c = *by_name.at(f.name);
-      undistorter.Run((workspace / c.linear).string(), (workspace / c.image).string(),
-                      (root / f.image_linear.substr(6)).string(),
-                      (root / f.image_8bit.substr(6)).string());
+      if (f.device == "geometry") {
+        undistorter.RunSrgb((workspace / c.image).string(), (root / f.image_8bit.substr(6)).string());
+      } else {
+        undistorter.Run((workspace / c.linear).string(), (workspace / c.image).string(),
+                        (root / f.image_linear.substr(6)).string(), (root / f.image_8bit.substr(6)).string());
+      }
       progress.Advance();
     });
     progress.Finish();
   }
   std::vector<Eigen::Vector3d> points;
   for (const BundlePoint& p : problem.points) points.push_back(p.position_m);
-  WriteColmapTextModel((root / "model").string(), problem.devices, model_images, model_poses, points);
+  WriteColmapTextModel((root / "model").string(), cameras.devices, model_images, model_poses, points);
   WriteCamerasFile((root / "cameras.json").string(), cameras);
   WriteLightsFile((root / "lights.json").string(), lights);
 
@@ -262,6 +280,10 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
                           {"light_frames", summary.frames["light"]},
                           {"frames_posed_by_board", board_posed},
                           {"unposed", unposed}};
+  if (geometry_pass) {
+    report["registered"]["geometry"] = summary.registered["geometry"];
+    report["registered"]["geometry_frames"] = summary.frames["geometry"];
+  }
   report["intrinsics"] = {{"view", ToJson(problem.devices.at("view"))},
                           {"light", ToJson(problem.devices.at("light"))},
                           {"undistorted_view", ToJson(cameras.undistorted_view)}};

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <set>
 
 #include <opencv2/imgcodecs.hpp>
@@ -165,25 +166,44 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
     images.push_back({SfmName(frames[i].capture), frames[i].capture.device});
     frame_of[images.back().name] = static_cast<int>(i);
   }
-  // Cross-phone pairs: view and light frames looking from similar directions
-  // (by their board poses), the "loop closure" between the two sequences.
+  // Cross pairs: frames looking from similar directions (by their board
+  // poses), the "loop closure" between sequences. Phone V frames pair with
+  // phone L frames; geometry-pass frames with phone V and L frames (this ties
+  // the pass to the V/L model) and with their own frames further apart in
+  // time than the sequential matcher reaches (the pass is one closed turn).
   std::vector<std::pair<std::string, std::string>> pairs;
   const double max_angle = so.cross_pair_max_angle_deg * M_PI / 180.0;
-  for (size_t v = 0; v < frames.size(); ++v) {
-    const BundleFrame& fv = problem->frames[v];
-    if (fv.device != "view" || !fv.posed) continue;
-    const Eigen::Vector3d dv = fv.cam_from_world.Inverse().translation.normalized();
+  auto add_pairs = [&](size_t a, const std::function<bool(size_t)>& partner) {
+    const Eigen::Vector3d da = problem->frames[a].cam_from_world.Inverse().translation.normalized();
     std::vector<std::pair<double, size_t>> candidates;
-    for (size_t l = 0; l < frames.size(); ++l) {
-      const BundleFrame& fl = problem->frames[l];
-      if (fl.device != "light" || !fl.posed) continue;
-      const double angle = std::acos(std::clamp(dv.dot(fl.cam_from_world.Inverse().translation.normalized()), -1.0, 1.0));
-      if (angle <= max_angle) candidates.push_back({angle, l});
+    for (size_t b = 0; b < frames.size(); ++b) {
+      if (!problem->frames[b].posed || !partner(b)) continue;
+      const Eigen::Vector3d db = problem->frames[b].cam_from_world.Inverse().translation.normalized();
+      const double angle = std::acos(std::clamp(da.dot(db), -1.0, 1.0));
+      if (angle <= max_angle) candidates.push_back({angle, b});
     }
     std::sort(candidates.begin(), candidates.end());
     for (size_t k = 0; k < candidates.size() && static_cast<int>(k) < so.cross_pairs_per_frame; ++k) {
-      pairs.push_back({images[v].name, images[candidates[k].second].name});
+      pairs.push_back({images[a].name, images[candidates[k].second].name});
     }
+  };
+  auto device_of = [&](size_t i) -> const std::string& { return frames[i].capture.device; };
+  for (size_t a = 0; a < frames.size(); ++a) {
+    if (!problem->frames[a].posed) continue;
+    if (device_of(a) == "view") {
+      add_pairs(a, [&](size_t b) { return device_of(b) == "light"; });
+    } else if (device_of(a) == "geometry") {
+      add_pairs(a, [&](size_t b) { return device_of(b) == "view" || device_of(b) == "light"; });
+      add_pairs(a, [&](size_t b) {
+        return device_of(b) == "geometry" && frames[b].capture.index > frames[a].capture.index + so.sequential_overlap;
+      });
+    }
+  }
+  // COLMAP extracts features per device with the device's fixed lens; the
+  // geometry pass gets a camera of its own with phone V's parameters.
+  std::map<std::string, Intrinsics> lenses = problem->devices;
+  for (const CalibFrame& f : frames) {
+    if (f.capture.device == "geometry") lenses["geometry"] = problem->devices.at(LensOf("geometry"));
   }
   SfmRunOptions run;
   run.colmap = so.colmap;
@@ -193,7 +213,7 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   run.ransac_trials = so.ransac_trials;
   run.threads = so.threads;
   run.min_registered = so.min_registered;
-  const SfmResult sfm = RunColmapSfm(images, problem->devices, pairs, run);
+  const SfmResult sfm = RunColmapSfm(images, lenses, pairs, run);
   for (const auto& [step, seconds] : sfm.timings_s) (*timings_s)["colmap_" + step] = seconds;
 
   // Align the model to the board frame on camera centres.
@@ -219,6 +239,10 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
       spdlog::warn("sfm: the largest COLMAP model holds no {} frame: the two phones' models do not "
                    "connect; {} frames keep their board poses only", device, device);
     }
+  }
+  if (lenses.count("geometry") && !sfm.registered_by_device.count("geometry")) {
+    spdlog::warn("sfm: the largest COLMAP model holds no geometry-pass frame: they keep their board poses "
+                 "(refined on the board corners); frames without a board pose stay unregistered");
   }
   int sfm_only = 0;
   for (const auto& [name, pose] : sfm.model.cam_from_model) {
@@ -266,7 +290,7 @@ nlohmann::json CheckBoardScale(const std::vector<CalibFrame>& frames, const Bund
   std::vector<double> ratios;
   for (size_t i = 0; i < frames.size(); ++i) {
     if (!problem.frames[i].posed) continue;
-    const double r = MeasureMarkerRatio(frames[i].board, problem.devices.at(frames[i].capture.device), spec);
+    const double r = MeasureMarkerRatio(frames[i].board, problem.devices.at(LensOf(frames[i].capture.device)), spec);
     if (r > 0) ratios.push_back(r);
   }
   const double specified = spec.marker_length_m / spec.square_length_m;
@@ -289,6 +313,42 @@ nlohmann::json CheckBoardScale(const std::vector<CalibFrame>& frames, const Bund
                 "% off, over ", ratios.size(), " frames). If marker_length_m is right, the squares are ",
                 spec.marker_length_m / measured, " m: measure the printed board and fix board: in the --config file");
   return report;
+}
+
+nlohmann::json GeometryPassReport(const std::vector<CalibFrame>& frames, const BundleProblem& problem,
+                                  const std::vector<bool>& posed_by_board, const BundleStats& stats,
+                                  const nlohmann::json& sfm_report, int min_corners) {
+  int count = 0, with_board = 0, board_posed = 0, registered = 0;
+  double corner_sum = 0;
+  int corner_frames = 0;
+  nlohmann::json unregistered = nlohmann::json::array();
+  for (size_t i = 0; i < frames.size(); ++i) {
+    if (frames[i].capture.device != "geometry") continue;
+    ++count;
+    with_board += static_cast<int>(frames[i].board.corner_ids.size()) >= min_corners;
+    board_posed += posed_by_board[i];
+    if (problem.frames[i].posed) {
+      ++registered;
+    } else {
+      unregistered.push_back(frames[i].capture.name);
+    }
+    if (problem.frames[i].posed && i < stats.frame_corner_rms_px.size() && stats.frame_corner_rms_px[i] > 0) {
+      corner_sum += stats.frame_corner_rms_px[i] * stats.frame_corner_rms_px[i];
+      ++corner_frames;
+    }
+  }
+  int in_sfm = 0;
+  if (sfm_report.contains("registered_by_device") && sfm_report["registered_by_device"].contains("geometry")) {
+    in_sfm = sfm_report["registered_by_device"]["geometry"].get<int>();
+  }
+  return {{"frames", count},
+          {"frames_with_board", with_board},
+          {"posed_by_board", board_posed},
+          {"registered_by_sfm", in_sfm},
+          {"registered", registered},
+          {"unregistered", unregistered},
+          {"lens", "view (same phone)"},
+          {"corner_rms_px", corner_frames > 0 ? std::sqrt(corner_sum / corner_frames) : 0.0}};
 }
 
 }  // namespace relit::calib

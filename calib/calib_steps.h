@@ -23,6 +23,17 @@ struct CalibFrame {
   BoardObservation board;
 };
 
+// The lens a device is calibrated with: the geometry pass is filmed with
+// phone V, so it shares phone V's lens in the bundle problem.
+inline std::string LensOf(const std::string& device) { return device == "geometry" ? "view" : device; }
+
+// The "geometry" report section: geometry-pass frames detected, posed by the
+// board, registered by COLMAP, registered in the end, and their board-corner
+// RMS after the final refinement. `frames[i]` is `problem.frames[i]`.
+nlohmann::json GeometryPassReport(const std::vector<CalibFrame>& frames, const BundleProblem& problem,
+                                  const std::vector<bool>& posed_by_board, const BundleStats& stats,
+                                  const nlohmann::json& sfm_report, int min_corners);
+
 // Detects the board in every frame (in parallel, with a progress bar).
 // `workspace` is the root the frame paths are relative to.
 std::vector<CalibFrame> DetectAll(const std::string& workspace, const std::vector<CaptureFrame>& frames,

@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "calib/calib.h"
+#include "calib/truth_accuracy.h"
 #include "capture/capture.h"
 #include "core/error.h"
 #include "core/json_file.h"
@@ -28,20 +29,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
-struct Accuracy {
-  double view_position_mm = 0, view_rotation_deg = 0;
-  double light_position_mm = 0, light_rotation_deg = 0;  // phone L camera poses
-  double flash_mm = 0;                                    // lights.json, reliable frames
-  double view_focal_error = 0, light_focal_error = 0;     // relative
-  int view_frames = 0, light_frames = 0, flashes = 0;
-};
 
 class CalibSynthTest : public ::testing::Test {
  protected:
@@ -87,71 +74,34 @@ class CalibSynthTest : public ::testing::Test {
   static CalibOptions Options(const std::string& workspace) {
     CalibOptions o;
     o.workspace = workspace;
-    const json& b = truth_["board"];
-    o.board.squares_x = b["squares_x"];
-    o.board.squares_y = b["squares_y"];
-    o.board.square_length_m = b["square_length_m"];
-    o.board.marker_length_m = b["marker_length_m"];
-    o.board.dictionary = b["dictionary"];
+    o.board = BoardSpecFromTruth(truth_);
     o.light.flash_offset_m = truth_["flash"]["offset_cam_m"].get<std::vector<double>>();
     o.sfm.enabled = false;
     return o;
   }
 
-  static Accuracy Measure(const std::string& workspace) {
-    const CamerasFile cameras = ReadCamerasFile(workspace + "/calib/cameras.json");
-    const LightsFile lights = ReadLightsFile(workspace + "/calib/lights.json");
-    std::map<std::string, int> source;  // frame name -> video frame
-    for (const std::string device : {"view", "light"}) {
-      for (const json& f : capture_[device + "_frames"]) {
-        char name[64];
-        std::snprintf(name, sizeof(name), "%s/%06d", device.c_str(), f["index"].get<int>());
-        source[name] = f["source_frame"];
-      }
-    }
-    std::map<std::string, std::vector<double>> position, rotation;
-    for (const CalibratedFrame& f : cameras.frames) {
-      const json& t = truth_["videos"][f.device]["frames"][source.at(f.name)];
-      const Rigid3 truth_pose = Rigid3FromJson(t["cam_from_world"]);
-      position[f.device].push_back(
-          (f.cam_from_world.Inverse().translation - truth_pose.Inverse().translation).norm() * 1e3);
-      rotation[f.device].push_back(RotationAngle(f.cam_from_world.rotation, truth_pose.rotation) * 180 / M_PI);
-    }
-    std::vector<double> flash;
-    for (const FrameLight& l : lights.frames) {
-      if (!l.reliable) continue;
-      const json& t = truth_["videos"]["view"]["frames"][source.at(l.view_frame)];
-      flash.push_back((l.position_m - Vector3FromJson(t["light_position_world_m"])).norm() * 1e3);
-    }
-    Accuracy a;
-    a.view_position_mm = Median(position["view"]);
-    a.view_rotation_deg = Median(rotation["view"]);
-    a.light_position_mm = Median(position["light"]);
-    a.light_rotation_deg = Median(rotation["light"]);
-    a.flash_mm = Median(flash);
-    a.view_frames = static_cast<int>(position["view"].size());
-    a.light_frames = static_cast<int>(position["light"].size());
-    a.flashes = static_cast<int>(flash.size());
-    a.view_focal_error = cameras.devices.at("view").fx / truth_["phones"]["view"]["intrinsics"]["fx"].get<double>() - 1;
-    a.light_focal_error = cameras.devices.at("light").fx / truth_["phones"]["light"]["intrinsics"]["fx"].get<double>() - 1;
-    std::cout << "accuracy: phone V " << a.view_frames << " frames, median " << a.view_position_mm << " mm, "
-              << a.view_rotation_deg << " deg; phone L " << a.light_frames << " frames, median "
-              << a.light_position_mm << " mm, " << a.light_rotation_deg << " deg; focal error V "
-              << a.view_focal_error * 100 << "%, L " << a.light_focal_error * 100 << "%; flash median "
-              << a.flash_mm << " mm over " << a.flashes << " frames\n";
+  static CalibAccuracy Measure(const std::string& workspace) {
+    const CalibAccuracy a = MeasureCalibAccuracy(workspace, truth_);
+    std::cout << "accuracy: " << a.Summary() << "\n";
     return a;
   }
 
-  // `scale` loosens the issue's targets (1 = the targets themselves).
-  static void ExpectAccurate(const Accuracy& a, const CalibSummary& s, double scale) {
-    EXPECT_GE(a.view_frames, static_cast<int>(capture_["view_frames"].size()) - 1);
-    EXPECT_GE(a.light_frames, static_cast<int>(capture_["light_frames"].size()) * 3 / 4);
-    EXPECT_LE(a.view_position_mm, 2.0 * scale);
-    EXPECT_LE(a.view_rotation_deg, 0.2 * scale);
-    EXPECT_LE(std::abs(a.view_focal_error), 0.005 * scale);
-    EXPECT_LE(std::abs(a.light_focal_error), 0.005 * scale);
-    EXPECT_LE(a.flash_mm, 5.0 * scale);
-    EXPECT_GE(a.flashes, a.view_frames * 3 / 4);
+  // The issue's targets on tiny: phone V median position <= 2 mm and
+  // rotation <= 0.2 deg, focal lengths within 0.5 %, flash median <= 5 mm,
+  // board-corner RMS <= 0.5 px. `scale` loosens phone V's rotation and focal
+  // length (1 = the targets). Phone L's lens matters only through the flash
+  // positions, which are asserted at the target; its focal length gets 3x.
+  static void ExpectAccurate(const CalibAccuracy& a, const CalibSummary& s, double scale) {
+    const DeviceAccuracy& view = a.devices.at("view");
+    const DeviceAccuracy& light = a.devices.at("light");
+    EXPECT_GE(view.frames, static_cast<int>(capture_["view_frames"].size()) - 1);
+    EXPECT_GE(light.frames, static_cast<int>(capture_["light_frames"].size()) * 3 / 4);
+    EXPECT_LE(view.position_median_mm, 2.0 * std::max(1.0, scale / 2));
+    EXPECT_LE(view.rotation_median_deg, 0.2 * scale);
+    EXPECT_LE(std::abs(view.focal_error), 0.005 * scale);
+    EXPECT_LE(std::abs(light.focal_error), 0.005 * std::max(3.0, scale));
+    EXPECT_LE(a.flash_median_mm, 5.0);
+    EXPECT_GE(a.flashes, view.frames * 3 / 4);
     EXPECT_LE(s.corner_rms_px, 0.5);
   }
 
@@ -189,12 +139,13 @@ TEST_F(CalibSynthTest, ColmapJointCalibrationMatchesTruth) {
   o.sfm.enabled = true;
   o.sfm.sequential_overlap = 6;
   const CalibSummary s = RunCalibImpl(o);
-  // Measured on tiny (7-9 corners per V frame, multi-threaded COLMAP varies
-  // between runs): V 1.1 mm / 0.11-0.31 deg, focal V 0.2%, L 0.2-1.0%,
-  // flash 2.5-4.1 mm. The issue's targets (scale 1) are not met reliably yet,
-  // so this asserts the accuracy reached today with margin for run-to-run
-  // variation; tightening it is open work (issue 5).
-  ExpectAccurate(Measure(ws), s, 2.5);
+  // Measured on tiny (320x240, 7-9 corners per V frame; multi-threaded
+  // COLMAP varies between runs): V 1.0-1.7 mm / 0.11-0.31 deg, focal V
+  // 0.1-0.5 %, L 0.2-1.1 %, flash 2.5-4.4 mm, corners 0.38-0.42 px. Phone V's
+  // position, the flash and the corner RMS meet the targets in every run;
+  // 0.2 deg is about 1 px at this size. The full preset meets every target
+  // (V 0.73 mm / 0.075 deg, focal 0.05 %; docs/benchmarks.md "Calib").
+  ExpectAccurate(Measure(ws), s, 2.0);
   const json report = ReadJsonFile(ws + "/calib/calib_report.json", "calib_report", 1);
   std::cout << "sfm: " << report["sfm"].dump() << "\n";
   EXPECT_GE(s.sfm_registered, o.sfm.min_registered);

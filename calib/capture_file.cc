@@ -19,6 +19,8 @@ constexpr int kCaptureVersion = 1;
 
 std::vector<CaptureFrame> ReadFrames(const json& capture, const std::string& key,
                                      const std::string& device, const std::string& path) {
+  // Geometry-pass photos carry no time: their file order is their order.
+  const bool untimed = device == "geometry";
   const json& frames = JsonField(capture, key, path);
   RELIT_REQUIRE(frames.is_array(), path, ": '", key, "' must be a list");
   std::vector<CaptureFrame> result;
@@ -30,7 +32,7 @@ std::vector<CaptureFrame> ReadFrames(const json& capture, const std::string& key
     char name[64];
     std::snprintf(name, sizeof(name), "%s/%06d", device.c_str(), frame.index);
     frame.name = name;
-    frame.time_s = JsonNumber(frames[i], "time_s", where);
+    frame.time_s = untimed && !frames[i].contains("time_s") ? frame.index : JsonNumber(frames[i], "time_s", where);
     frame.source_frame = frames[i].value("source_frame", -1);
     frame.image = "capture/" + JsonString(frames[i], "image", where);
     if (frames[i].contains("linear")) frame.linear = "capture/" + JsonString(frames[i], "linear", where);
@@ -77,6 +79,23 @@ CaptureInput ReadCaptureFile(const std::string& workspace) {
   for (const CaptureFrame& frame : input.view) {
     RELIT_REQUIRE(!frame.linear.empty(), path, ": phone V frame ", frame.name,
                   " has no linear EXR ('linear'): rerun relit-capture");
+  }
+  if (capture.contains("geometry_frames") && !capture["geometry_frames"].empty()) {
+    input.geometry = ReadFrames(capture, "geometry_frames", "geometry", path);
+    // The geometry pass shares phone V's lens, so it must share its pixel grid.
+    const json& source = JsonField(JsonField(capture, "inputs", path), "geometry", path + ": inputs");
+    const json& frames = capture["geometry_frames"];
+    for (size_t i = 0; i < frames.size(); ++i) {
+      const json& sized = source.value("type", "") == "photos" ? frames[i] : source;
+      const char* width_key = sized.contains("output_width_px") ? "output_width_px" : "width_px";
+      const char* height_key = sized.contains("output_height_px") ? "output_height_px" : "height_px";
+      const int width = JsonInt(sized, width_key, path + ": geometry_frames[" + std::to_string(i) + "]");
+      const int height = JsonInt(sized, height_key, path + ": geometry_frames[" + std::to_string(i) + "]");
+      RELIT_REQUIRE(width == input.view_width_px && height == input.view_height_px, path, ": geometry-pass frame ",
+                    i, " is ", width, "x", height, " but phone V's frames are ", input.view_width_px, "x",
+                    input.view_height_px, ". The geometry pass is calibrated with phone V's lens: film it with "
+                    "phone V at the same video resolution (or rerun relit-capture without --geometry)");
+    }
   }
   return input;
 }

@@ -74,8 +74,14 @@ void FrameUndistorter::Run(const std::string& linear_in, const std::string& srgb
   remapped.set_channel_names(linear.channel_names());
   fs::create_directories(fs::path(linear_out).parent_path());
   WriteImage(linear_out, remapped, PixelStorage::kHalf);
+  RunSrgb(srgb_in, srgb_out);
+}
+
+void FrameUndistorter::RunSrgb(const std::string& srgb_in, const std::string& srgb_out) const {
   const cv::Mat srgb = cv::imread(srgb_in, cv::IMREAD_COLOR);
   RELIT_REQUIRE(!srgb.empty(), "cannot read ", srgb_in, ": rerun relit-capture");
+  RELIT_REQUIRE(srgb.cols == map_x_.cols && srgb.rows == map_x_.rows, srgb_in, " is ", srgb.cols, "x", srgb.rows,
+                " but the calibrated lens is ", map_x_.cols, "x", map_x_.rows, ": rerun relit-capture and relit-calib");
   fs::create_directories(fs::path(srgb_out).parent_path());
   const std::string temporary = srgb_out + ".tmp.png";
   RELIT_REQUIRE(cv::imwrite(temporary, Remap(srgb)), "cannot write ", srgb_out);

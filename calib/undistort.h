@@ -25,6 +25,9 @@ class FrameUndistorter {
   void Run(const std::string& linear_in, const std::string& srgb_in, const std::string& linear_out,
            const std::string& srgb_out) const;
 
+  // 8-bit sRGB only (geometry-pass frames have no linear copy).
+  void RunSrgb(const std::string& srgb_in, const std::string& srgb_out) const;
+
   cv::Mat Remap(const cv::Mat& image) const;
 
  private:

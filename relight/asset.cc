@@ -10,6 +10,7 @@
 #include "core/json_file.h"
 #include "core/run_record.h"
 #include "relight/checkpoint.h"
+#include "relight/sh_encoding.h"
 #include "relight/cue_stage.h"
 #include "relight/dataset.h"
 #include "relight/plan.h"
@@ -84,6 +85,7 @@ void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRe
   fs::copy_file(asset.mesh, root / "proxy.obj");
   json partitions = json::array();
   int trained = 0;
+  CueFormat format;
   for (size_t p = 0; p < asset.partition_models.size(); ++p) {
     const std::string name = PartitionDirName(static_cast<int>(p));
     json entry = {{"index", p}, {"direction", ToJson(plan.partitions[p].direction)}};
@@ -96,10 +98,16 @@ void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRe
       const CheckpointInfo info = ReadCheckpointInfo(source);
       DnlModel model = LoadModel(source, "cpu");
       fs::create_directories(root / "textures");
+      format = model->options().format;
       std::vector<std::string> channels;
-      for (int c = 0; c < model->options().channels_per_basis * 5; ++c) {
-        channels.push_back("basis" + std::to_string(c / model->options().channels_per_basis) + ".ch" +
-                           std::to_string(c % model->options().channels_per_basis));
+      const int per_basis = model->options().channels_per_basis;
+      if (format.is_sh()) {  // SH-modulated channels, then the pass-through ones
+        for (const std::string& n : ShLightChannelNames()) channels.push_back("tex_" + n);
+        for (int c = 0; c < per_basis; ++c) channels.push_back("pass.ch" + std::to_string(c));
+      } else {
+        for (size_t c = 0; c < format.bases.size() * per_basis; ++c) {
+          channels.push_back("basis" + std::to_string(c / per_basis) + ".ch" + std::to_string(c % per_basis));
+        }
       }
       WriteImage((root / "textures" / (name + ".exr")).string(),
                  TensorToImage(model->texture()->texels().detach(), channels), PixelStorage::kFloat);
@@ -124,7 +132,8 @@ void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRe
                  {"camera", ToJson(asset.camera)},
                  {"capture_distance_m", asset.capture_distance_m},
                  {"cues",
-                  {{"basis", {"lambert", "ggx_alpha_0.02", "ggx_alpha_0.05", "ggx_alpha_0.13", "ggx_alpha_0.34"}},
+                  {{"basis", format.LongBasisNames()},
+                   {"input", format.input},
                    {"roughness", "GGX alpha (no squaring), specular F0 = 1"},
                    {"light_unit_w_per_sr", asset.flash_intensity},
                    {"max_depth", asset.cue_max_depth}}},

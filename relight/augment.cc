@@ -251,7 +251,7 @@ void AugmentView(RelitRenderer& renderer, const Camera& camera, const std::vecto
     light.direction_to_light = split.directions[k].normalized();
     light.color = Eigen::Vector3d::Constant(reference_irradiance);
     settings.seed = seed * 1000003 + k;
-    const Image cue_frame = RenderCueFrame(renderer.scene(), camera, light, settings);
+    const Image cue_frame = RenderCueFrame(renderer.scene(), camera, light, settings, renderer.format());
     if (alpha.empty()) {
       window = CoverageWindow(cue_frame, 16);  // the same for every light
       alpha = Image(width, height, std::vector<std::string>{"A"});
@@ -275,7 +275,8 @@ void AugmentView(RelitRenderer& renderer, const Camera& camera, const std::vecto
     light.environment = maps[m]->light;
     settings.seed = seed * 1000003 + 999983 + m;
     settings.samples_per_pixel = options.map_samples_per_pixel;
-    WriteImage(stems[m].string() + ".cues.exr", RenderCueFrame(renderer.scene(), camera, light, settings));
+    WriteImage(stems[m].string() + ".cues.exr",
+               RenderCueFrame(renderer.scene(), camera, light, settings, renderer.format()));
     // Straight colour (the model's targets are unpremultiplied) + the mask network's alpha.
     Image target(width, height, std::vector<std::string>{"R", "G", "B", "A"});
     for (size_t p = 0; p < target.pixel_count(); ++p) {
@@ -287,8 +288,8 @@ void AugmentView(RelitRenderer& renderer, const Camera& camera, const std::vecto
   }
 }
 
-Batch LoadAugmentedFrame(const fs::path& stem) {
-  Batch batch = CueFrameToBatch(ReadCueFrame(stem.string() + ".cues.exr"));
+Batch LoadAugmentedFrame(const fs::path& stem, const CueFormat& format) {
+  Batch batch = CueFrameToBatch(ReadCueFrame(stem.string() + ".cues.exr", format), format);
   const Image target = ReadImage(stem.string() + ".target.exr");
   RELIT_REQUIRE(target.channels() == 4 && target.width() == batch.width() && target.height() == batch.height(),
                 stem.string(), ".target.exr: expected RGBA of the cue frame's size; delete the augment folder");
@@ -447,16 +448,17 @@ AugmentStageResult RunAugmentStage(const std::string& workspace, int partition, 
     TruncateLog(log_path, trainer->step());
   }
 
+  const CueFormat format = trainer->model()->options().format;
   std::vector<Batch> captured, augmented, validation;
   {
     auto timer = record.Time("load_frames");
     Progress progress("load frames", static_cast<int64_t>(part.train_frames.size() + stems_all.size()));
     for (int index : part.train_frames) {
-      captured.push_back(LoadPlanFrame(root.string(), plan.frames[index]));
+      captured.push_back(LoadPlanFrame(root.string(), plan.frames[index], format));
       progress.Advance();
     }
     for (const fs::path& stem : stems_all) {
-      augmented.push_back(LoadAugmentedFrame(stem));
+      augmented.push_back(LoadAugmentedFrame(stem, format));
       progress.Advance();
     }
     progress.Finish();
@@ -464,7 +466,7 @@ AugmentStageResult RunAugmentStage(const std::string& workspace, int partition, 
         std::min<int>(train.max_validation_frames, static_cast<int>(part.validation_frames.size()));
     for (int i = 0; i < validation_count; ++i) {
       const size_t pick = part.validation_frames.size() * (2 * i + 1) / (2 * validation_count);
-      validation.push_back(LoadPlanFrame(root.string(), plan.frames[part.validation_frames[pick]]));
+      validation.push_back(LoadPlanFrame(root.string(), plan.frames[part.validation_frames[pick]], format));
     }
   }
   if (!validation.empty()) {
@@ -517,6 +519,7 @@ AugmentStageResult RunAugmentStage(const std::string& workspace, int partition, 
   }
   const int64_t trained = result.steps - std::max(result.resumed_from, start_step);
   record.Set("seconds_per_step", trained > 0 ? seconds / trained : 0.0);
+  record.Set("process_cpu_s", ProcessCpuSeconds());  // frames, fine-tuning; this run only
   record.Write(done_path.string());
   spdlog::info("augment: partition {} done: {} views x {} maps, {} fine-tuning steps{}", partition, result.views,
                options.maps_per_view, options.steps,

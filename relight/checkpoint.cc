@@ -26,10 +26,20 @@ void WithTorchErrors(const std::filesystem::path& path, const char* what, Fn fn)
   }
 }
 
-ModelOptions ModelOptionsFromJson(const nlohmann::json& j, const std::string& where) {
+// The format keys ("input", "bases") are not `model:` options: split them off.
+ModelOptions ModelOptionsFromJson(const nlohmann::json& j_in, const std::string& where) {
+  nlohmann::json j = j_in, format = nlohmann::json::object();
+  for (const char* key : {"input", "bases"}) {
+    if (j.is_object() && j.contains(key)) {
+      format[key] = j[key];
+      j.erase(key);
+    }
+  }
   OptionsReader reader = OptionsReader::FromString(j.dump(), where);
   ModelOptions options;
   options.Read(reader);
+  options.format = CueFormat::FromJson(format, where);  // absent: the default (older checkpoints)
+  options.Check();
   return options;
 }
 
@@ -101,6 +111,13 @@ DnlModel LoadModel(const std::filesystem::path& dir, const std::string& device) 
   const auto model_path = dir / kModelFile;
   WithTorchErrors(model_path, "read", [&] { torch::load(model, model_path.string(), model->device()); });
   return model;
+}
+
+void RequireCheckpointFormat(const std::filesystem::path& dir, const CueFormat& configured) {
+  const CueFormat trained = ReadCheckpointInfo(dir).model_options.format;
+  RELIT_REQUIRE(trained == configured, "the model in ", dir.string(), " was trained on ", trained.Describe(),
+                " but the config asks for ", configured.Describe(),
+                ": use the config it was trained with, or rerun cues, plan and train with this one");
 }
 
 }  // namespace relit::relight

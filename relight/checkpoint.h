@@ -47,4 +47,9 @@ std::unique_ptr<Trainer> LoadTrainer(const std::filesystem::path& dir, const std
 // Only the model (for rendering), on `device` (empty = the stored one).
 DnlModel LoadModel(const std::filesystem::path& dir, const std::string& device = "");
 
+// Throws relit::Error (naming the checkpoint and both settings) when the
+// checkpoint in `dir` was trained on another light input than `configured`
+// (cues.input / cues.bases): its networks would read the wrong channels.
+void RequireCheckpointFormat(const std::filesystem::path& dir, const CueFormat& configured);
+
 }  // namespace relit::relight

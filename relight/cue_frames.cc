@@ -1,29 +1,112 @@
 #include "relight/cue_frames.h"
 
+#include <algorithm>
 #include <filesystem>
 
 #include "core/error.h"
 #include "core/render/cue_renderer.h"
 #include "core/render/path_tracer.h"
+#include "relight/sh_encoding.h"
 
 namespace relit::relight {
 
-const std::vector<std::string>& CueFrameChannels() {
-  static const std::vector<std::string> names = [] {
-    std::vector<std::string> n = render::CueChannelNames(5);
-    for (const char* extra : {"u", "v", "dudx", "dvdx", "dudy", "dvdy", "A"}) n.push_back(extra);
-    return n;
-  }();
+namespace {
+
+const char* const kGeometryChannels[kGeometryChannelCount] = {"u", "v", "dudx", "dvdx", "dudy", "dvdy", "A"};
+
+// The basis materials of `names`, in that order.
+std::vector<render::CueBasis> SelectBases(const std::vector<std::string>& names) {
+  const std::vector<render::CueBasis> all = render::DefaultCueBasis();
+  std::vector<render::CueBasis> selected;
+  for (const std::string& name : names) {
+    auto it = std::find_if(all.begin(), all.end(), [&](const render::CueBasis& b) { return b.name == name; });
+    RELIT_CHECK(it != all.end());  // CueFormat::Check ran
+    selected.push_back(*it);
+  }
+  return selected;
+}
+
+}  // namespace
+
+std::vector<std::string> CueFormat::DefaultBasisNames() {
+  std::vector<std::string> names;
+  for (const render::CueBasis& b : render::DefaultCueBasis()) names.push_back(b.name);
   return names;
 }
 
-Image ReadCueFrame(const std::string& path) {
-  const Image image = ReadImage(path);
-  for (const std::string& name : CueFrameChannels()) {
-    RELIT_REQUIRE(image.ChannelIndex(name) >= 0, path, " has no channel '", name,
-                  "': not a cue frame of this relit version; rerun `relit-relight cues`");
+int CueFormat::light_channels() const {
+  return is_sh() ? kShLightChannelCount : 3 * static_cast<int>(bases.size());
+}
+
+std::vector<std::string> CueFormat::Channels() const {
+  std::vector<std::string> n =
+      is_sh() ? ShLightChannelNames() : render::CueChannelNames(static_cast<int>(bases.size()));
+  for (const char* extra : kGeometryChannels) n.push_back(extra);
+  return n;
+}
+
+std::vector<std::string> CueFormat::LongBasisNames() const {
+  std::vector<std::string> names;
+  if (is_sh()) return names;
+  for (const std::string& b : bases) names.push_back(b.rfind("ggx_", 0) == 0 ? "ggx_alpha_" + b.substr(4) : b);
+  return names;
+}
+
+std::string CueFormat::Describe() const {
+  if (is_sh()) return "sh (spherical-harmonics view and light encoding)";
+  std::string s = "radiance cues, " + std::to_string(bases.size()) + (bases.size() == 1 ? " basis (" : " bases (");
+  for (size_t i = 0; i < bases.size(); ++i) s += (i ? ", " : "") + bases[i];
+  return s + ")";
+}
+
+void CueFormat::Check() const {
+  RELIT_REQUIRE(input == kRadiance || input == kSh, "cues.input must be '", kRadiance, "' (DNL radiance cues) or '",
+                kSh, "' (the spherical-harmonics baseline), got '", input, "'");
+  if (is_sh()) return;
+  const std::vector<std::string> known = DefaultBasisNames();
+  std::string list;
+  for (const std::string& k : known) list += (list.empty() ? "" : ", ") + k;
+  RELIT_REQUIRE(!bases.empty(), "cues.bases must name at least one basis material (", list, ")");
+  for (size_t i = 0; i < bases.size(); ++i) {
+    RELIT_REQUIRE(std::find(known.begin(), known.end(), bases[i]) != known.end(), "cues.bases: unknown basis '",
+                  bases[i], "'; known: ", list);
+    RELIT_REQUIRE(std::find(bases.begin(), bases.begin() + i, bases[i]) == bases.begin() + i,
+                  "cues.bases: '", bases[i], "' is listed twice");
   }
-  return image.SelectChannels(CueFrameChannels());
+}
+
+nlohmann::json CueFormat::ToJson() const {
+  nlohmann::json j = {{"input", input}};
+  if (!is_sh()) j["bases"] = bases;
+  return j;
+}
+
+CueFormat CueFormat::FromJson(const nlohmann::json& j, const std::string& where) {
+  CueFormat f;
+  RELIT_REQUIRE(j.is_object(), where, ": expected an object with 'input' and 'bases'");
+  if (j.contains("input")) f.input = j["input"].get<std::string>();
+  if (j.contains("bases")) f.bases = j["bases"].get<std::vector<std::string>>();
+  try {
+    f.Check();
+  } catch (const Error& e) {
+    Fail(where, ": ", e.what());
+  }
+  return f;
+}
+
+const std::vector<std::string>& CueFrameChannels() {
+  static const std::vector<std::string> names = CueFormat{}.Channels();
+  return names;
+}
+
+Image ReadCueFrame(const std::string& path, const CueFormat& format) {
+  const Image image = ReadImage(path);
+  const std::vector<std::string> channels = format.Channels();
+  for (const std::string& name : channels) {
+    RELIT_REQUIRE(image.ChannelIndex(name) >= 0, path, " has no channel '", name, "': not a cue frame of ",
+                  format.Describe(), "; rerun `relit-relight cues` with the config the model uses");
+  }
+  return image.SelectChannels(channels);
 }
 
 CueLight CueLight::Point(const Eigen::Vector3d& position_m, double intensity) {
@@ -65,8 +148,45 @@ std::unique_ptr<render::Scene> LoadProxyScene(const std::string& mesh_path) {
   return scene;
 }
 
+namespace {
+
+// The channels after the light channels: uv, its screen derivatives, alpha.
+void WriteGeometryChannels(const render::RenderResult& result, int x, int y, float* geometry) {
+  geometry[0] = result.uv.at(x, y, 0);
+  geometry[1] = result.uv.at(x, y, 1);
+  for (int c = 0; c < 4; ++c) geometry[2 + c] = result.uv_derivatives.at(x, y, c);
+  geometry[6] = result.alpha.at(x, y, 0);
+}
+
+// The sh format: primary rays only (coverage, uv, positions), then the SH
+// light channels per pixel from the pixel-centre surface point.
+Image RenderShFrame(const render::Scene& scene, const Camera& camera, const CueLight& light,
+                    const render::RenderOptions& options) {
+  const ShLight sh = ShLight::FromCueLight(light);
+  const render::RenderResult result = render::RenderWithIntegrator(
+      scene, camera, options, {"unused"},
+      [](const render::Vec3f&, const render::Vec3f&, const render::Hit*, render::Rng&, float*) {});
+  const int width = result.alpha.width(), height = result.alpha.height();
+  const Eigen::Vector3d centre = camera.Center();
+  Image frame(width, height, CueFormat{CueFormat::kSh}.Channels());
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      float* out = frame.pixel(x, y);
+      if (result.object_id.at(x, y, 0) >= 0) {  // 0 where the centre ray misses (coverage may be > 0)
+        const Eigen::Vector3d p(result.position.at(x, y, 0), result.position.at(x, y, 1), result.position.at(x, y, 2));
+        sh.PixelFeatures(p, centre, out);
+      }
+      WriteGeometryChannels(result, x, y, out + kShLightChannelCount);
+    }
+  }
+  return frame;
+}
+
+}  // namespace
+
 Image RenderCueFrame(render::Scene& scene, const Camera& camera, const CueLight& light,
-                     const CueRenderSettings& settings) {
+                     const CueRenderSettings& settings, const CueFormat& format) {
+  format.Check();
   const bool had_emitters = !scene.quad_lights().empty();
   scene.ClearLights();
   if (had_emitters && light.kind != CueLight::Kind::kQuad) scene.Commit();
@@ -94,18 +214,17 @@ Image RenderCueFrame(render::Scene& scene, const Camera& camera, const CueLight&
   // The network sees the object only; an environment seen behind it is not a cue.
   options.environment_visible = false;
   options.alpha_object_ids = {1};
-  const render::RenderResult result = render::RenderCues(scene, camera, options);
+  if (format.is_sh()) return RenderShFrame(scene, camera, light, options);
+  const render::RenderResult result = render::RenderCues(scene, camera, options, SelectBases(format.bases));
   const int width = result.radiance.width(), height = result.radiance.height();
-  Image frame(width, height, CueFrameChannels());
+  const int light_channels = format.light_channels();
+  Image frame(width, height, format.Channels());
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
       float* out = frame.pixel(x, y);
       const float* cues = result.radiance.pixel(x, y);
-      for (int c = 0; c < kCueChannelCount; ++c) out[c] = cues[c];
-      out[15] = result.uv.at(x, y, 0);
-      out[16] = result.uv.at(x, y, 1);
-      for (int c = 0; c < 4; ++c) out[17 + c] = result.uv_derivatives.at(x, y, c);
-      out[21] = result.alpha.at(x, y, 0);
+      for (int c = 0; c < light_channels; ++c) out[c] = cues[c];
+      WriteGeometryChannels(result, x, y, out + light_channels);
     }
   }
   return frame;

@@ -1,7 +1,13 @@
-// Radiance-cue frames: the proxy rendered under one light with the 5 basis
-// materials, plus what the neural texture needs to be projected into the
-// view. One half-float multi-channel EXR per frame with the channels
-//   cue0.R cue0.G cue0.B ... cue4.B   the 5 cues (linear RGB)
+// Cue frames: the networks' per-pixel light input for one view under one
+// light, plus what the neural texture needs to be projected into the view.
+// One half-float multi-channel EXR per frame; its light channels depend on
+// the CueFormat (`cues.input`, `cues.bases`):
+//   input radiance: cue0.R cue0.G cue0.B ... (3 per basis material, linear RGB
+//                   radiance cues; default 5 bases = 15 channels)
+//   input sh:       shv0..shv8 (SH of the view direction), shl0..shl8 (SH of
+//                   the light direction), level.R level.G level.B (light
+//                   level, sh_encoding.h): a G-buffer, no path tracing
+// followed by
 //   u v                               atlas coordinates (OBJ convention, v up)
 //   dudx dvdx dudy dvdy               their screen-space derivatives (per pixel)
 //   A                                 proxy coverage (fraction of the pixel)
@@ -22,9 +28,42 @@
 
 namespace relit::relight {
 
-// Channel names of a cue frame, in file order.
+// What a cue frame holds for the networks (docs/relight.md, "Baselines").
+struct CueFormat {
+  static constexpr const char* kRadiance = "radiance";  // DNL radiance cues
+  static constexpr const char* kSh = "sh";              // DNR-style SH encoding
+  std::string input = kRadiance;
+  // Basis materials of the radiance cues, names of render::DefaultCueBasis()
+  // ("lambert", "ggx_0.02", "ggx_0.05", "ggx_0.13", "ggx_0.34"). Unused by sh.
+  std::vector<std::string> bases = DefaultBasisNames();
+
+  static std::vector<std::string> DefaultBasisNames();
+  bool is_sh() const { return input == kSh; }
+  bool is_default() const { return input == kRadiance && bases == DefaultBasisNames(); }
+  // Light channels per pixel: 3 x bases (radiance) or 21 (sh).
+  int light_channels() const;
+  // All channel names of a frame, in file order (light channels, then the
+  // 7 geometry channels u v dudx dvdx dudy dvdy A).
+  std::vector<std::string> Channels() const;
+  // "ggx_0.02" -> "ggx_alpha_0.02": the spelling of the `basis` key of
+  // cues.json and the asset manifest (empty for sh).
+  std::vector<std::string> LongBasisNames() const;
+  // "radiance cues, 5 bases (lambert, ...)" / "sh" for messages.
+  std::string Describe() const;
+  // Throws relit::Error for unknown inputs or basis names, duplicates, none.
+  void Check() const;
+  // {"input": .., "bases": [..]} (bases only for radiance).
+  nlohmann::json ToJson() const;
+  // From ToJson's form; missing keys keep the defaults (files of older relit).
+  static CueFormat FromJson(const nlohmann::json& j, const std::string& where);
+  bool operator==(const CueFormat& o) const { return input == o.input && (is_sh() || bases == o.bases); }
+  bool operator!=(const CueFormat& o) const { return !(*this == o); }
+};
+
+// Channel names of a default-format cue frame (5 radiance cues), file order.
 const std::vector<std::string>& CueFrameChannels();
-constexpr int kCueChannelCount = 15;  // 5 bases x RGB
+constexpr int kCueChannelCount = 15;  // default: 5 bases x RGB
+constexpr int kGeometryChannelCount = 7;  // u v dudx dvdx dudy dvdy A
 
 struct CueRenderSettings {
   int samples_per_pixel = 16;
@@ -49,16 +88,18 @@ struct CueLight {
 // Reads a cue frame and returns its channels in CueFrameChannels() order
 // (EXR files store channels sorted by name). Throws relit::Error naming the
 // file and the missing channel.
-Image ReadCueFrame(const std::string& path);
+Image ReadCueFrame(const std::string& path, const CueFormat& format = {});
 
 // The proxy mesh (OBJ with UVs, world frame) as a cue scene. Throws
 // relit::Error naming the file when it cannot be read or has no UVs.
 std::unique_ptr<render::Scene> LoadProxyScene(const std::string& mesh_path);
 
-// Renders one cue frame (channels as CueFrameChannels()). Replaces the
+// Renders one cue frame (channels as format.Channels()). Replaces the
 // scene's lights with `light`. Not thread-safe for the same scene (the
-// rendering itself runs in parallel).
+// rendering itself runs in parallel). The sh format traces primary rays
+// only (coverage with settings.samples_per_pixel, geometry at the pixel
+// centre) and supports point, directional and environment lights.
 Image RenderCueFrame(render::Scene& scene, const Camera& camera, const CueLight& light,
-                     const CueRenderSettings& settings);
+                     const CueRenderSettings& settings, const CueFormat& format = {});
 
 }  // namespace relit::relight

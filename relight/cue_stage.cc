@@ -42,6 +42,11 @@ CuesFile ReadCuesFile(const std::string& path) {
   file.flash_intensity = JsonNumber(j, "flash_intensity", path);
   file.samples_per_pixel = JsonInt(j, "samples_per_pixel", path);
   file.max_depth = JsonInt(j, "max_depth", path);
+  nlohmann::json format = nlohmann::json::object();
+  for (const char* key : {"input", "bases"}) {
+    if (j.contains(key)) format[key] = j[key];
+  }
+  file.format = CueFormat::FromJson(format, path);
   for (const json& f : JsonField(j, "frames", path)) {
     const std::string where = path + ": frames[" + std::to_string(file.frames.size()) + "]";
     CueFrameRecord r;
@@ -70,8 +75,10 @@ void WriteCuesFile(const std::string& path, const CuesFile& file) {
                  {"flash_intensity", file.flash_intensity},
                  {"samples_per_pixel", file.samples_per_pixel},
                  {"max_depth", file.max_depth},
-                 {"channels", CueFrameChannels()},
-                 {"basis", {"lambert", "ggx_alpha_0.02", "ggx_alpha_0.05", "ggx_alpha_0.13", "ggx_alpha_0.34"}},
+                 {"channels", file.format.Channels()},
+                 {"input", file.format.input},
+                 {"bases", file.format.is_sh() ? std::vector<std::string>{} : file.format.bases},
+                 {"basis", file.format.LongBasisNames()},
                  {"frames", frames}});
 }
 
@@ -109,6 +116,7 @@ CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions&
   cues.flash_intensity = options.flash_intensity;
   cues.samples_per_pixel = options.samples_per_pixel;
   cues.max_depth = options.max_depth;
+  cues.format = options.Format();
   int without_light = 0;
   for (const CalibratedFrame* frame : cameras.FramesOf("view")) {
     const FrameLight* light = lights.Find(frame->name);
@@ -173,7 +181,8 @@ CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions&
         settings.seed = options.seed * 1000003ull + i;
         const Camera camera(cameras.undistorted_view, r.cam_from_world);
         const Image frame =
-            RenderCueFrame(*scene, camera, CueLight::Point(r.light_position_m, options.flash_intensity), settings);
+            RenderCueFrame(*scene, camera, CueLight::Point(r.light_position_m, options.flash_intensity), settings,
+                           cues.format);
         WriteImage(file.string(), frame);  // atomic per file
         ++summary.frames_rendered;
       }

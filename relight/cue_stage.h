@@ -15,6 +15,7 @@
 #include <Eigen/Core>
 
 #include "core/camera.h"
+#include "relight/cue_frames.h"
 #include "relight/stage_options.h"
 
 namespace relit {
@@ -39,6 +40,7 @@ struct CuesFile {
   double flash_intensity = 1;     // W/sr of the point light the cues assume
   int samples_per_pixel = 0;
   int max_depth = 0;
+  CueFormat format;               // "input"/"bases"; absent in older files = the default
   std::vector<CueFrameRecord> frames;
 };
 CuesFile ReadCuesFile(const std::string& path);

@@ -20,20 +20,22 @@ torch::Tensor Channels(const Image& image, int first, int count) {
 
 }  // namespace
 
-Batch CueFrameToBatch(const Image& cue_frame) {
-  RELIT_REQUIRE(cue_frame.channel_names() == CueFrameChannels(),
-                "cue frame: unexpected channels (was it written by an older relit? rerun `relit-relight cues`)");
+Batch CueFrameToBatch(const Image& cue_frame, const CueFormat& format) {
+  RELIT_REQUIRE(cue_frame.channel_names() == format.Channels(), "cue frame: unexpected channels for ",
+                format.Describe(), " (rendered with other cues.input / cues.bases settings, or by an older relit? "
+                "rerun `relit-relight cues`)");
+  const int light = format.light_channels();
   Batch batch;
-  batch.cues = Channels(cue_frame, 0, kCueChannelCount).permute({2, 0, 1}).unsqueeze(0).contiguous();
-  batch.uv = Channels(cue_frame, 15, 2).unsqueeze(0);
-  batch.uv_derivatives = Channels(cue_frame, 17, 4).unsqueeze(0);
-  batch.coverage = Channels(cue_frame, 21, 1).permute({2, 0, 1}).unsqueeze(0).contiguous();
+  batch.cues = Channels(cue_frame, 0, light).permute({2, 0, 1}).unsqueeze(0).contiguous();
+  batch.uv = Channels(cue_frame, light, 2).unsqueeze(0);
+  batch.uv_derivatives = Channels(cue_frame, light + 2, 4).unsqueeze(0);
+  batch.coverage = Channels(cue_frame, light + 6, 1).permute({2, 0, 1}).unsqueeze(0).contiguous();
   return batch;
 }
 
-Batch LoadPlanFrame(const std::string& workspace, const PlanFrame& frame) {
+Batch LoadPlanFrame(const std::string& workspace, const PlanFrame& frame, const CueFormat& format) {
   const std::filesystem::path root(workspace);
-  const Image cues = ReadCueFrame((root / frame.cues).string());
+  const Image cues = ReadCueFrame((root / frame.cues).string(), format);
   const Image target = ReadImage((root / frame.image).string());
   const Image matte = ReadImage((root / frame.matte).string());
   RELIT_REQUIRE(target.channels() >= 3, frame.image, ": expected an RGB image");
@@ -42,7 +44,7 @@ Batch LoadPlanFrame(const std::string& workspace, const PlanFrame& frame) {
                 "frame ", frame.name, ": cue frame ", frame.cues, " (", cues.width(), "x", cues.height(),
                 "), image ", frame.image, " (", target.width(), "x", target.height(), ") and matte ", frame.matte,
                 " (", matte.width(), "x", matte.height(), ") must have the same size; rerun `relit-relight cues`");
-  Batch batch = CueFrameToBatch(cues);
+  Batch batch = CueFrameToBatch(cues, format);
   AttachTargets(batch, target, matte);
   return batch;
 }

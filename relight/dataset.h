@@ -13,8 +13,8 @@
 
 namespace relit::relight {
 
-// A Batch (B = 1, float32, CPU) from a cue frame, without targets.
-Batch CueFrameToBatch(const Image& cue_frame);
+// A Batch (B = 1, float32, CPU) from a cue frame of `format`, without targets.
+Batch CueFrameToBatch(const Image& cue_frame, const CueFormat& format = {});
 
 // Sets the batch's targets: channels 0-2 of `rgb` (linear radiance) and
 // channel `matte_channel` of `matte` (clamped to [0, 1]). Sizes must match
@@ -23,7 +23,7 @@ void AttachTargets(Batch& batch, const Image& rgb, const Image& matte, int matte
 
 // A Batch with targets from plan frame `frame` of `workspace`. Throws
 // relit::Error naming the file when sizes disagree.
-Batch LoadPlanFrame(const std::string& workspace, const PlanFrame& frame);
+Batch LoadPlanFrame(const std::string& workspace, const PlanFrame& frame, const CueFormat& format = {});
 
 // The model's premultiplied RGBA for a whole frame of any size: the batch is
 // zero-padded to a multiple of 4 (the networks downsample twice) and the

@@ -148,6 +148,13 @@ TruthEvalSet ReadTruthEvalSet(const std::string& truth_json) {
   return set;
 }
 
+std::string ModelVariantLabel(const CueFormat& format) {
+  if (format.is_sh()) return "sh_dnr";
+  if (format.is_default()) return "dnl";
+  const size_t n = format.bases.size();
+  return "dnl_" + std::to_string(n) + (n == 1 ? "_basis" : "_bases");
+}
+
 CueLight ToCueLight(const TruthLight& light, double unit_factor) {
   // Through the same JSON light parser as `render --views`.
   json j;
@@ -208,9 +215,20 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
   for (const std::string& m : options.methods) {
     (m == "model_point_light" && !augmented ? skipped : methods).push_back(m);
   }
+  json skipped_reasons = json::object();
   for (const std::string& m : skipped) {
-    spdlog::info("eval: {} skipped (no partition has an augmented model in W/relight/augment/)", m);
+    skipped_reasons[m] = "no partition has an augmented model in W/relight/augment/";
   }
+  // The light input of this workspace (cues.input / cues.bases): the cue
+  // frames eval renders must be what the models were trained on.
+  const CueFormat format = ReadCuesFile((root / "relight/cues/cues.json").string()).format;
+  if (!format.is_default() && std::count(methods.begin(), methods.end(), "cues_only") > 0) {
+    methods.erase(std::find(methods.begin(), methods.end(), "cues_only"));
+    skipped.push_back("cues_only");
+    skipped_reasons["cues_only"] = "the cues-only baseline regresses the 5 default radiance cues; this workspace's "
+                                   "cue frames hold " + format.Describe() + " (score it on a default workspace)";
+  }
+  for (const std::string& m : skipped) spdlog::info("eval: {} skipped ({})", m, skipped_reasons[m].get<std::string>());
   const AssetDescription asset = DescribeWorkspace(root.string(), ModelSet::kFinal);
   RELIT_REQUIRE(std::any_of(asset.partition_models.begin(), asset.partition_models.end(),
                             [](const std::string& m) { return !m.empty(); }),
@@ -226,6 +244,11 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
       if (m == "model_point_light") {
         renderers[m] = std::make_unique<RelitRenderer>(DescribeWorkspace(root.string(), ModelSet::kPointLight));
       }
+    }
+    for (const auto& [m, renderer] : renderers) {
+      RELIT_REQUIRE(renderer->format() == format, "eval: the ", m, " models read ", renderer->format().Describe(),
+                    " but ", (root / "relight/cues/cues.json").string(), " says the cues are ", format.Describe(),
+                    ": retrain (relit-relight plan, train) after changing cues.input / cues.bases");
     }
   }
   if (std::count(methods.begin(), methods.end(), "cues_only") > 0) {
@@ -284,7 +307,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
       Image cues;
       {
         auto timer = record.Time("cues");
-        cues = RenderCueFrame(*scene, camera, ToCueLight(light, unit_factor), settings);
+        cues = RenderCueFrame(*scene, camera, ToCueLight(light, unit_factor), settings, format);
       }
       const std::string stem = light.name;
       if (options.write_images) WriteReferencePng((image_dir / (stem + "_gt.png")).string(), reference, matte);
@@ -325,6 +348,9 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
       {"truth", fs::absolute(truth_json).string()},
       {"methods", methods},
       {"skipped_methods", skipped},
+      {"skipped_reasons", skipped_reasons},
+      {"model_input", format.ToJson()},
+      {"model_variant", ModelVariantLabel(format)},
       {"views", view_count},
       {"lights", truth.lights.size()},
       {"light_unit",

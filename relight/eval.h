@@ -130,6 +130,11 @@ struct EvalSummary {
   std::vector<std::string> methods;
 };
 
+// Short name of a model's light input for tables: "dnl" (radiance cues, the
+// 5 default bases), "dnl_1_basis" / "dnl_N_bases" (other basis sets),
+// "sh_dnr" (the spherical-harmonics DNR baseline).
+std::string ModelVariantLabel(const CueFormat& format);
+
 // Scores `workspace` against `truth_json` into `out_dir` (atomically).
 // `render` gives the default samples per pixel.
 EvalSummary RunEval(const std::string& workspace, const std::string& truth_json, const std::string& out_dir,

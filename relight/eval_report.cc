@@ -191,6 +191,15 @@ void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResu
   md += fmt::format("Truth: `{}`; {} views x {} lights. Cells: PSNR (dB) / MAE / SSIM, linear, on the GT "
                     "foreground (see eval.json \"metrics\").\n\n",
                     header.value("truth", std::string()), header.value("views", 0), header.value("lights", 0));
+  if (header.contains("model_variant")) {
+    md += fmt::format("Model input: `{}` ({}).\n\n", header.value("model_variant", std::string()),
+                      header["model_input"].dump());
+  }
+  if (header.contains("skipped_reasons")) {
+    for (const auto& [method, reason] : header["skipped_reasons"].items()) {
+      md += "Skipped `" + method + "`: " + reason.get<std::string>() + ".\n\n";
+    }
+  }
   md += "| method |";
   for (const std::string& t : types) md += " " + t + " |";
   md += " all | alpha MAE |\n|---|";

@@ -43,59 +43,8 @@ double Seconds(std::chrono::steady_clock::time_point start) {
 
 constexpr int kWidth = 160, kHeight = 120;
 
-// truth.json (relit-synth's writer) for the test workspace's capture plan,
-// eval intrinsics scaled to the workspace size. With `render_images`, the
-// eval set is path-traced as relit-synth does; otherwise 1x1 placeholders.
 std::string WriteTruth(const std::string& dir, bool render_images) {
-  synth::SynthOptions options = synth::SynthOptions::ForSize("tiny");  // as MakeTestWorkspace
-  options.out = dir;
-  const synth::SynthScene scene = synth::BuildScene("spot", options.board, synth::DefaultAssetsDir());
-  synth::CapturePlan plan = synth::MakeCapturePlan(options, scene);
-  plan.eval_intrinsics = plan.eval_intrinsics.Scaled(kWidth, kHeight);
-  const std::string truth = dir + "/truth.json";
-  WriteJsonFile(truth, synth::kTruthKind, synth::kTruthVersion, synth::MakeTruthJson(options, scene, plan, true));
-  const Image sky = render::MakeSkyMap(options.envmap_width_px, plan.sun_elevation_rad, plan.sun_azimuth_rad);
-  const Image studio = render::MakeStudioMap(options.envmap_width_px);
-  fs::create_directories(dir + "/eval/envmaps");
-  WriteImage(dir + "/" + synth::EnvmapPath("sky"), sky, PixelStorage::kFloat);
-  WriteImage(dir + "/" + synth::EnvmapPath("studio"), studio, PixelStorage::kFloat);
-  render::Scene render_scene;
-  scene.AddTo(&render_scene);
-  bool committed = false;
-  for (size_t v = 0; v < plan.eval_views.size(); ++v) {
-    fs::create_directories(dir + "/eval/" + plan.eval_views[v].name);
-    for (size_t l = 0; l < plan.eval_lights.size(); ++l) {
-      const synth::EvalLight& light = plan.eval_lights[l];
-      const std::string image = dir + "/" + synth::EvalImagePath(plan.eval_views[v].name, light.name);
-      const std::string alpha = dir + "/" + synth::EvalAlphaPath(plan.eval_views[v].name);
-      if (!render_images) {
-        WriteImage(image, Image(1, 1, 3));
-        WriteImage(alpha, Image(1, 1, 1));
-        continue;
-      }
-      render_scene.ClearLights();
-      if (light.type == "point") {
-        render_scene.AddLight(render::PointLight{light.position_world.cast<float>(), light.rgb.cast<float>().array()});
-      } else if (light.type == "directional") {
-        render_scene.AddLight(
-            render::DirectionalLight{light.direction_to_light.cast<float>(), light.rgb.cast<float>().array()});
-      } else {
-        render_scene.SetEnvironment(render::EnvironmentLight(light.envmap == "sky" ? sky : studio));
-      }
-      if (!committed) render_scene.Commit();
-      committed = true;
-      render::RenderOptions ro;
-      ro.samples_per_pixel = 16;
-      ro.max_depth = options.max_depth;
-      ro.seed = 100 + v * 10 + l;
-      ro.alpha_object_ids = scene.ForegroundIds();
-      const render::RenderResult result =
-          render::RenderImage(render_scene, Camera(plan.eval_intrinsics, plan.eval_views[v].cam_from_world), ro);
-      WriteImage(image, result.radiance);
-      if (l == 0) WriteImage(alpha, result.alpha);
-    }
-  }
-  return truth;
+  return testing::WriteTestTruth(dir, render_images, kWidth, kHeight);
 }
 
 int RunCli(std::vector<std::string> args) {

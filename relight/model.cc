@@ -33,12 +33,18 @@ NeuralTextureOptions ModelOptions::TextureOptions() const {
   t.mip_levels = mip_levels;
   t.init_min = 1.0 - texture_init_spread;
   t.init_max = 1.0 + texture_init_spread;
+  if (format.is_sh()) {
+    t.basis_count = 1;  // C pass-through channels
+    t.extra_channels = format.light_channels();
+  } else {
+    t.basis_count = static_cast<int>(format.bases.size());
+  }
   return t;
 }
 
 GeneratorOptions ModelOptions::RendererOptions() const {
   GeneratorOptions g;
-  g.input_channels = kBasisCount * channels_per_basis;
+  g.input_channels = TextureOptions().channels();
   g.output_channels = 3;
   g.ngf = ngf;
   g.n_blocks = n_blocks;
@@ -77,6 +83,7 @@ void ModelOptions::Read(OptionsReader& reader) {
 }
 
 void ModelOptions::Check() const {
+  format.Check();
   TextureOptions().Check();
   RendererOptions().Check();
   MaskOptions().Check();
@@ -87,7 +94,7 @@ void ModelOptions::Check() const {
 }
 
 nlohmann::json ModelOptions::ToJson() const {
-  return {{"texture_resolution_px", texture_resolution_px},
+  nlohmann::json j = {{"texture_resolution_px", texture_resolution_px},
           {"channels_per_basis", channels_per_basis},
           {"mip_levels", mip_levels},
           {"ngf", ngf},
@@ -100,6 +107,8 @@ nlohmann::json ModelOptions::ToJson() const {
           {"texture_init_spread", texture_init_spread},
           {"max_radiance", max_radiance},
           {"device", device}};
+  if (!format.is_default()) j.update(format.ToJson());
+  return j;
 }
 
 void TrainOptions::Read(OptionsReader& reader) {
@@ -140,7 +149,8 @@ void Batch::Check(bool need_targets) const {
   CheckShape(uv, "uv", {b, h, w, 2});
   CheckShape(uv_derivatives, "uv_derivatives", {b, h, w, 4});
   CheckShape(coverage, "coverage", {b, 1, h, w});
-  CheckShape(cues, "cues", {b, 3 * kBasisCount, h, w});
+  RELIT_REQUIRE(cues.defined() && cues.dim() == 4, "batch: cues must be [B, L, H, W]");
+  CheckShape(cues, "cues", {b, cues.size(1), h, w});
   if (need_targets || target_rgb.defined()) CheckShape(target_rgb, "target_rgb", {b, 3, h, w});
   if (need_targets || target_matte.defined()) CheckShape(target_matte, "target_matte", {b, 1, h, w});
 }
@@ -197,8 +207,13 @@ DnlModelImpl::DnlModelImpl(const ModelOptions& options)
 ModelOutput DnlModelImpl::Forward(const Batch& batch_in) {
   batch_in.Check(/*need_targets=*/false);
   const Batch batch = batch_in.To(device_);
+  RELIT_REQUIRE(batch.cues.size(1) == options_.format.light_channels(), "model: the batch has ",
+                batch.cues.size(1), " light channels, the model reads ", options_.format.Describe(), " (",
+                options_.format.light_channels(), " channels): cue frames and model come from different "
+                "cues.input / cues.bases settings");
   const auto texture = texture_->forward(batch.uv, batch.uv_derivatives, batch.coverage);
-  const auto input = BuildNetworkInput(texture, batch.cues, encoding_.max_radiance());
+  const auto input = options_.format.is_sh() ? BuildShNetworkInput(texture, batch.cues, encoding_.max_radiance())
+                                             : BuildNetworkInput(texture, batch.cues, encoding_.max_radiance());
   return {renderer_->forward(input), mask_net_->forward(texture)};
 }
 

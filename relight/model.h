@@ -22,6 +22,7 @@
 #include <nlohmann/json.hpp>
 #include <torch/torch.h>
 
+#include "relight/cue_frames.h"
 #include "relight/log_encoding.h"
 #include "relight/networks.h"
 #include "relight/neural_texture.h"
@@ -52,6 +53,9 @@ struct ModelOptions {
   // whoever builds the model from data must set it (DnlModel requires > 0).
   double max_radiance = 0.0;
   std::string device = "cpu";       // "cpu", "cuda" or "auto" (cuda when available)
+  // The light input the model reads (cues.input / cues.bases). Not a key of
+  // `model:`; the stage copies it from `cues:`, checkpoints record it.
+  CueFormat format;
 
   NeuralTextureOptions TextureOptions() const;
   GeneratorOptions RendererOptions() const;
@@ -59,6 +63,8 @@ struct ModelOptions {
 
   void Read(OptionsReader& reader);
   void Check() const;
+  // With "input"/"bases" (format) only when not the default, so records of
+  // default models are what they were before the format existed.
   nlohmann::json ToJson() const;
 };
 
@@ -86,7 +92,7 @@ struct Batch {
   torch::Tensor uv;              // [B, H, W, 2]  OBJ convention (v up)
   torch::Tensor uv_derivatives;  // [B, H, W, 4]  dudx, dvdx, dudy, dvdy
   torch::Tensor coverage;        // [B, 1, H, W]  proxy coverage in [0, 1]
-  torch::Tensor cues;            // [B, 15, H, W] radiance cues, linear RGB x 5 bases
+  torch::Tensor cues;            // [B, L, H, W] light input: radiance cues (3 x bases, default 15) or sh (21)
   torch::Tensor target_rgb;      // [B, 3, H, W]  linear radiance (training only)
   torch::Tensor target_matte;    // [B, 1, H, W]  in [0, 1] (training only)
 

@@ -118,20 +118,38 @@ torch::Tensor ResnetGeneratorImpl::forward(const torch::Tensor& x) {
 
 torch::Tensor BuildNetworkInput(const torch::Tensor& sampled_texture, const torch::Tensor& cues,
                                 double max_radiance) {
-  RELIT_REQUIRE(sampled_texture.dim() == 4 && sampled_texture.size(1) % kBasisCount == 0,
-                "network input: texture must be [B, 5 C, H, W], got ", sampled_texture.sizes());
-  RELIT_REQUIRE(cues.dim() == 4 && cues.size(1) == 3 * kBasisCount && cues.size(0) == sampled_texture.size(0) &&
-                    cues.size(2) == sampled_texture.size(2) && cues.size(3) == sampled_texture.size(3),
-                "network input: cues must be [B, 15, H, W] matching the texture ", sampled_texture.sizes(),
+  RELIT_REQUIRE(cues.dim() == 4 && cues.size(1) >= 3 && cues.size(1) % 3 == 0 &&
+                    cues.size(0) == sampled_texture.size(0) && cues.size(2) == sampled_texture.size(2) &&
+                    cues.size(3) == sampled_texture.size(3),
+                "network input: cues must be [B, 3 N, H, W] matching the texture ", sampled_texture.sizes(),
                 ", got ", cues.sizes());
-  const int64_t per_basis = sampled_texture.size(1) / kBasisCount;
+  const int64_t bases = cues.size(1) / 3;
+  RELIT_REQUIRE(sampled_texture.dim() == 4 && sampled_texture.size(1) % bases == 0,
+                "network input: texture must be [B, ", bases, " C, H, W] for ", bases, " cue bases, got ",
+                sampled_texture.sizes());
+  const int64_t per_basis = sampled_texture.size(1) / bases;
   std::vector<int64_t> index;
-  for (int64_t basis = 0; basis < kBasisCount; ++basis) {
+  for (int64_t basis = 0; basis < bases; ++basis) {
     for (int64_t k = 0; k < per_basis; ++k) index.push_back(3 * basis + k % 3);
   }
   const auto index_tensor = torch::tensor(index, torch::TensorOptions().dtype(torch::kLong).device(cues.device()));
   const auto tiled = cues.to(sampled_texture.dtype()).index_select(1, index_tensor);
   return LogEncoding(max_radiance).Encode(sampled_texture * tiled);
+}
+
+torch::Tensor BuildShNetworkInput(const torch::Tensor& sampled_texture, const torch::Tensor& sh,
+                                  double max_radiance) {
+  constexpr int64_t kDirections = 18, kLight = 21;  // shv + shl, + level RGB
+  RELIT_REQUIRE(sh.dim() == 4 && sh.size(1) == kLight && sampled_texture.dim() == 4 &&
+                    sampled_texture.size(1) > kLight && sh.size(0) == sampled_texture.size(0) &&
+                    sh.size(2) == sampled_texture.size(2) && sh.size(3) == sampled_texture.size(3),
+                "sh network input: texture [B, 21 + C, H, W] and sh channels [B, 21, H, W] expected, got ",
+                sampled_texture.sizes(), " and ", sh.sizes());
+  const auto light = sh.to(sampled_texture.dtype());
+  const auto directions = sampled_texture.slice(1, 0, kDirections) * light.slice(1, 0, kDirections);
+  const auto level = LogEncoding(max_radiance)
+                         .Encode(sampled_texture.slice(1, kDirections, kLight) * light.slice(1, kDirections, kLight));
+  return torch::cat({directions, level, sampled_texture.slice(1, kLight)}, 1);
 }
 
 }  // namespace relit::relight

@@ -73,11 +73,21 @@ class ResnetGeneratorImpl : public torch::nn::Module {
 TORCH_MODULE(ResnetGenerator);
 
 // Network input of the renderer: the projected texture's channels of basis i
-// (channels i C .. i C + C - 1 of `sampled_texture` [B, 5 C, H, W]) times cue
-// i (channels 3 i .. 3 i + 2 of `cues` [B, 15, H, W], linear RGB radiance),
+// (channels i C .. i C + C - 1 of `sampled_texture` [B, N C, H, W]) times cue
+// i (channels 3 i .. 3 i + 2 of `cues` [B, 3 N, H, W], linear RGB radiance),
 // channel k of a basis using cue colour k mod 3; then log-encoded with the
-// scene's maximum radiance M. Returns [B, 5 C, H, W].
+// scene's maximum radiance M. Returns [B, N C, H, W]. N = 5 bases by default.
 torch::Tensor BuildNetworkInput(const torch::Tensor& sampled_texture, const torch::Tensor& cues,
                                 double max_radiance);
+
+// Network input of the sh baseline (sh_encoding.h) from `sampled_texture`
+// [B, 21 + C, H, W] and the sh light channels `sh` [B, 21, H, W]:
+//   [0, 9)    texture 0..8   x view SH (shv)       DNR's view encoding
+//   [9, 18)   texture 9..17  x light SH (shl)      the same for the light
+//   [18, 21)  LogEncode(texture 18..20 x level RGB)  absolute light level
+//   [21, 21+C) texture 21..                         passed through (as DNR)
+// Returns [B, 21 + C, H, W].
+torch::Tensor BuildShNetworkInput(const torch::Tensor& sampled_texture, const torch::Tensor& sh,
+                                  double max_radiance);
 
 }  // namespace relit::relight

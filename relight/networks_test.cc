@@ -52,7 +52,32 @@ TEST(NetworkInputTest, EachBasisIsMultipliedByItsTiledCue) {
       EXPECT_TRUE(torch::allclose(input.select(1, basis * c + k), expected)) << basis << " " << k;
     }
   }
-  EXPECT_THROW(BuildNetworkInput(texture, cues.slice(1, 0, 12), m), Error);
+  EXPECT_THROW(BuildNetworkInput(texture, cues.slice(1, 0, 14), m), Error);  // not RGB triples
+  EXPECT_THROW(BuildNetworkInput(texture, cues.slice(1, 0, 9), m), Error);   // 3 bases do not divide 5 C
+  // One basis (Lambert): every texture channel times the Lambert cue.
+  const auto one = BuildNetworkInput(texture.slice(1, 0, c), cues.slice(1, 0, 3), m);
+  for (int k = 0; k < c; ++k) {
+    EXPECT_TRUE(torch::allclose(one.select(1, k), enc.Encode(texture.select(1, k) * cues.select(1, k % 3))));
+  }
+}
+
+TEST(NetworkInputTest, ShInputModulatesDirectionsAndEncodesTheLevel) {
+  const int c = 3, h = 4, w = 5;
+  const auto texture = torch::randn({1, 21 + c, h, w}, torch::kDouble);
+  const auto sh = torch::randn({1, 21, h, w}, torch::kDouble);
+  const double m = 4.0;
+  const auto input = BuildShNetworkInput(texture, sh.abs(), m);
+  ASSERT_EQ(input.sizes(), texture.sizes());
+  const LogEncoding enc(m);
+  for (int k = 0; k < 18; ++k) {
+    EXPECT_TRUE(torch::allclose(input.select(1, k), texture.select(1, k) * sh.abs().select(1, k))) << k;
+  }
+  for (int k = 18; k < 21; ++k) {
+    EXPECT_TRUE(torch::allclose(input.select(1, k), enc.Encode(texture.select(1, k) * sh.abs().select(1, k)))) << k;
+  }
+  EXPECT_TRUE(torch::equal(input.slice(1, 21), texture.slice(1, 21)));
+  EXPECT_THROW(BuildShNetworkInput(texture, sh.slice(1, 0, 15), m), Error);
+  EXPECT_THROW(BuildShNetworkInput(texture.slice(1, 0, 21), sh, m), Error);  // no pass-through channel
 }
 
 TEST(GeneratorTest, ShapesRangeAndSizeChecks) {

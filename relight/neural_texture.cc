@@ -43,6 +43,7 @@ void NeuralTextureOptions::Check() const {
                 "texture resolution_px must be a power of two in [1, 8192], got ", resolution_px);
   RELIT_REQUIRE(channels_per_basis >= 1 && channels_per_basis <= 64,
                 "channels_per_basis must be in [1, 64], got ", channels_per_basis);
+  RELIT_REQUIRE(basis_count >= 0 && extra_channels >= 0 && channels() >= 1, "texture: no channels");
   RELIT_REQUIRE(mip_levels >= 0 && mip_levels <= 14, "mip_levels must be in [0, 14], got ", mip_levels);
   RELIT_REQUIRE(std::isfinite(init_min) && std::isfinite(init_max) && init_min <= init_max,
                 "texture init_min must be <= init_max, got ", init_min, " > ", init_max);

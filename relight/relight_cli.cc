@@ -7,7 +7,10 @@
 #include "core/log.h"
 #include "core/options.h"
 #include "core/run_record.h"
+#include "core/atomic_output.h"
 #include "relight/asset.h"
+#include "relight/checkpoint.h"
+#include "relight/compare.h"
 #include "relight/cue_stage.h"
 #include "relight/eval.h"
 #include "relight/interop.h"
@@ -71,6 +74,19 @@ struct LogFile {
   spdlog::level::level_enum level_;
 };
 
+// Every trained checkpoint (point-light and augmented) against the config's
+// cues.input / cues.bases. Without a plan there is nothing to check yet (the
+// steps say what to run).
+void RequireWorkspaceFormat(const std::string& workspace, const CueFormat& configured) {
+  const fs::path root(workspace);
+  if (!fs::exists(root / "relight/plan/plan.json") || !fs::exists(root / "relight/cues/cues.json")) return;
+  for (ModelSet set : {ModelSet::kPointLight, ModelSet::kFinal}) {
+    for (const std::string& model : DescribeWorkspace(workspace, set).partition_models) {
+      if (!model.empty()) RequireCheckpointFormat(model, configured);
+    }
+  }
+}
+
 }  // namespace
 
 int RunRelight(int argc, char** argv) {
@@ -96,6 +112,11 @@ int RunRelight(int argc, char** argv) {
   CLI::App* eval = app.add_subcommand("eval", "score the trained workspace against a synthetic capture's ground "
                                       "truth (truth.json's eval set)");
   for (CLI::App* sub : {cues, plan, train, augment, render, export_asset, eval}) common(sub);
+  CLI::App* compare = app.add_subcommand("compare", "one Markdown table from several workspaces' eval.json "
+                                         "(methods x light types, with training CPU-hours)");
+  std::vector<std::string> compare_evals;
+  compare->add_option("--eval", compare_evals, "[LABEL=]DIR with eval.json (repeat)")->required();
+  compare->add_option("--out", out, "write the table here (default: print it)");
   std::string truth;
   eval->add_option("--truth", truth, "relit-synth's truth.json (with its eval/ folder)")->required();
   eval->add_option("--out", out, "output folder (default W/relight/eval)");
@@ -127,12 +148,24 @@ int RunRelight(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
+  if (compare->parsed()) {
+    std::vector<CompareInput> inputs;
+    for (const std::string& e : compare_evals) inputs.push_back(ParseCompareInput(e));
+    const std::string table = CompareEvaluations(inputs);
+    if (out.empty()) {
+      std::fputs(table.c_str(), stdout);
+    } else {
+      AtomicWriteFile(out, table);
+    }
+    return 0;
+  }
   RelightOptions options;
   if (!config.empty()) {
     OptionsReader reader = OptionsReader::FromFile(config);
     options.Read(reader);
   }
   options.workspace = workspace;
+  options.model.format = options.cues.Format();  // the model reads what the cues step renders
   // Export flags given on the command line win over the config's `export:`.
   for (const auto& [flag, apply] : std::initializer_list<std::pair<const char*, std::function<void()>>>{
            {"--no-interop", [&] { options.exports.enabled = !no_interop; }},
@@ -151,6 +184,10 @@ int RunRelight(int argc, char** argv) {
   RunRecord record("relit-relight");
   record.SetCommandLine(argc, argv);
   record.SetOptions(options.ToJson());
+  // A trained model must read the light input the config describes.
+  if (augment->parsed() || render->parsed() || eval->parsed() || export_asset->parsed()) {
+    RequireWorkspaceFormat(workspace, options.cues.Format());
+  }
   if (cues->parsed()) {
     LogFile log(relight_dir / "logs" / "cues.log", level);
     RunCueStage(workspace, options.cues, record);

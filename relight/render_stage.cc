@@ -38,6 +38,11 @@ RelitRenderer::RelitRenderer(const AssetDescription& asset, const std::string& d
   for (size_t p = 0; p < asset_.partition_models.size(); ++p) {
     if (asset_.partition_models[p].empty()) continue;
     models_[p] = LoadModel(asset_.partition_models[p], device);
+    const CueFormat& format = (*models_[p])->options().format;
+    RELIT_REQUIRE(loaded == 0 || format == format_, "partition ", p, " (", asset_.partition_models[p],
+                  ") was trained on ", format.Describe(), ", an earlier partition on ", format_.Describe(),
+                  ": retrain the partitions with one config");
+    format_ = format;
     ++loaded;
   }
   RELIT_REQUIRE(loaded > 0, "no trained partition to render with: run `relit-relight train --partition K` "
@@ -75,11 +80,11 @@ std::vector<std::pair<int, double>> RelitRenderer::Weights(const Eigen::Vector3d
 Image RelitRenderer::Render(const Camera& camera, const CueLight& light, const CueRenderSettings& settings_in) {
   CueRenderSettings settings = settings_in;
   settings.max_depth = asset_.cue_max_depth;  // new views see the cues the networks were trained on
-  return RenderCues(RenderCueFrame(*scene_, camera, light, settings), camera.Center());
+  return RenderCues(RenderCueFrame(*scene_, camera, light, settings, format_), camera.Center());
 }
 
 Image RelitRenderer::RenderCues(const Image& cue_frame, const Eigen::Vector3d& camera_centre_m) {
-  const Batch batch = CueFrameToBatch(cue_frame);
+  const Batch batch = CueFrameToBatch(cue_frame, format_);
   Image result(cue_frame.width(), cue_frame.height(), {"R", "G", "B", "A"});
   for (const auto& [partition, weight] : Weights(camera_centre_m - asset_.object_centre_m)) {
     const Image rgba = RenderFrame(*models_[partition], batch);

@@ -47,6 +47,8 @@ class RelitRenderer {
   render::Scene& scene() { return *scene_; }
 
   const AssetDescription& asset() const { return asset_; }
+  // The light input every loaded model reads (they must agree).
+  const CueFormat& format() const { return format_; }
   // Partitions weights for a view direction after dropping untrained ones.
   std::vector<std::pair<int, double>> Weights(const Eigen::Vector3d& direction) const;
 
@@ -55,6 +57,7 @@ class RelitRenderer {
   PartitionLayout layout_;
   std::unique_ptr<render::Scene> scene_;
   std::vector<std::optional<DnlModel>> models_;
+  CueFormat format_;
 };
 
 // A light from JSON: {"type": "point", "position_m": [..], "intensity": x or [r,g,b]},

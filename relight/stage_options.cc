@@ -13,6 +13,8 @@ void CueStageOptions::Read(OptionsReader& r) {
   r.Read("seed", &seed);
   r.Read("flash_intensity", &flash_intensity);
   r.ReadRange("threads", &threads, 0, 1024);
+  r.Read("input", &input);
+  r.Read("bases", &bases);
   r.Finish();
   Check();
 }
@@ -23,14 +25,17 @@ void CueStageOptions::Check() const {
   RELIT_REQUIRE(std::isfinite(flash_intensity) && flash_intensity > 0,
                 "cues.flash_intensity must be > 0, got ", flash_intensity);
   RELIT_REQUIRE(threads >= 0, "cues.threads must be >= 0 (0 = all cores)");
+  Format().Check();
 }
 
 nlohmann::json CueStageOptions::ToJson() const {
-  return {{"samples_per_pixel", samples_per_pixel},
-          {"max_depth", max_depth},
-          {"seed", seed},
-          {"flash_intensity", flash_intensity},
-          {"threads", threads}};
+  nlohmann::json j = {{"samples_per_pixel", samples_per_pixel},
+                      {"max_depth", max_depth},
+                      {"seed", seed},
+                      {"flash_intensity", flash_intensity},
+                      {"threads", threads}};
+  if (!Format().is_default()) j.update(Format().ToJson());
+  return j;
 }
 
 void DatasetOptions::Read(OptionsReader& r) {

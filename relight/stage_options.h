@@ -11,6 +11,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "relight/cue_frames.h"
+
 namespace relit {
 class OptionsReader;
 }
@@ -26,9 +28,16 @@ struct CueStageOptions {
   // fixed value works as long as rendering uses the same unit.
   double flash_intensity = 1.0;
   int threads = 0;              // 0 = all cores
+  // The networks' light input (cue_frames.h, docs/relight.md "Baselines"):
+  // "radiance" (DNL) or "sh" (the spherical-harmonics DNR baseline), and the
+  // basis materials of the radiance cues (the 1-vs-5 basis ablation).
+  std::string input = CueFormat::kRadiance;
+  std::vector<std::string> bases = CueFormat::DefaultBasisNames();
 
+  CueFormat Format() const { return {input, bases}; }
   void Read(OptionsReader& reader);
   void Check() const;
+  // `input` and `bases` only when not the defaults (older records stay equal).
   nlohmann::json ToJson() const;
 };
 

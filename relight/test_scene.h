@@ -15,6 +15,7 @@
 #include <torch/torch.h>
 
 #include "relight/model.h"
+#include "relight/sh_encoding.h"
 
 namespace relit::relight::testing {
 
@@ -76,6 +77,35 @@ inline Batch SyntheticFrame(const torch::Tensor& material, int size, int frame, 
   batch.cues = cue_tensor.to(torch::kFloat);
   batch.target_rgb = (torch::pow(radiance, 0.8) * coverage).to(torch::kFloat);
   batch.target_matte = coverage.to(torch::kFloat);
+  return batch;
+}
+
+// The same frame for the sh baseline (sh_encoding.h): the light comes from a
+// per-frame direction d (polar angle <= 70 deg), the view is along +Z, and
+// the target is a material-weighted function of d that only the SH light
+// channels reveal:
+//   target = (2 (m_0(uv) (0.3 + 0.7 d_z) + 0.5 m_1(uv) (1 + d_x)) colour)^0.8
+// batch.cues holds the 21 sh channels (view SH, light SH, level 2).
+inline Batch SyntheticShFrame(const torch::Tensor& material, int size, int frame, uint64_t seed) {
+  Batch batch = SyntheticFrame(material, size, frame, seed);
+  auto gen = at::make_generator<at::CPUGeneratorImpl>(seed * 7919 + static_cast<uint64_t>(frame));
+  const double theta = 1.22 * torch::rand({1}, gen, torch::kDouble).item<double>();
+  const double phi = 6.283185307179586 * torch::rand({1}, gen, torch::kDouble).item<double>();
+  const Eigen::Vector3d d(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+  const auto view = ShBasis(Eigen::Vector3d::UnitZ()), light = ShBasis(d);
+  std::vector<double> channels(view.begin(), view.end());
+  channels.insert(channels.end(), light.begin(), light.end());
+  for (int c = 0; c < 3; ++c) channels.push_back(2.0);
+  const auto coverage = batch.coverage.to(torch::kDouble);
+  batch.cues = (torch::tensor(channels, torch::kDouble).view({1, -1, 1, 1}) * coverage).to(torch::kFloat);
+  const auto uv = batch.uv.to(torch::kDouble);
+  const auto grid = torch::stack({uv.select(3, 0) * 2.0 - 1.0, 1.0 - uv.select(3, 1) * 2.0}, -1);
+  const auto m = torch::nn::functional::grid_sample(
+      material, grid,
+      torch::nn::functional::GridSampleFuncOptions().mode(torch::kBilinear).padding_mode(torch::kBorder).align_corners(false));
+  const auto shade = m.slice(1, 0, 1) * (0.3 + 0.7 * d.z()) + 0.5 * m.slice(1, 1, 2) * (1.0 + d.x());
+  const auto colour = torch::tensor({1.0, 0.8, 0.6}, torch::kDouble).view({1, 3, 1, 1});
+  batch.target_rgb = (torch::pow(2.0 * shade * colour, 0.8) * coverage).to(torch::kFloat);
   return batch;
 }
 

@@ -25,4 +25,10 @@ struct TestWorkspaceOptions {
 // Creates (replacing) the workspace in `dir`.
 void MakeTestWorkspace(const std::string& dir, const TestWorkspaceOptions& options);
 
+// truth.json (relit-synth's writer) for the test workspace's capture plan in
+// `dir`, eval intrinsics scaled to width_px x height_px. With
+// `render_images`, the eval set is path-traced as relit-synth does (board and
+// table, 16 spp); otherwise 1x1 placeholders. Returns the truth.json path.
+std::string WriteTestTruth(const std::string& dir, bool render_images, int width_px, int height_px);
+
 }  // namespace relit::relight::testing

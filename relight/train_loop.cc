@@ -1,5 +1,7 @@
 #include "relight/train_loop.h"
 
+#include <sys/resource.h>
+
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -150,6 +152,13 @@ TrainLoopResult RunTrainLoop(Trainer& trainer, const std::function<Batch(int64_t
   progress.Finish();
   if (!result.interrupted) validate(trainer.step());
   return result;
+}
+
+double ProcessCpuSeconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
+  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
 }
 
 }  // namespace relit::relight

@@ -70,6 +70,12 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
   RELIT_REQUIRE(partition >= 0 && partition < static_cast<int>(plan.partitions.size()), "partition ", partition,
                 " does not exist: the plan (", plan_path, ") has partitions 0..", plan.partitions.size() - 1);
   const PlanPartition& part = plan.partitions[partition];
+  // Before anything is removed: a refused run leaves the trained partition alone.
+  const std::string cues_path = (root / "relight" / "cues" / "cues.json").string();
+  const CueFormat rendered = ReadCuesFile(cues_path).format;
+  RELIT_REQUIRE(rendered == model_options_in.format, cues_path, ": the cue frames hold ", rendered.Describe(),
+                " but the config asks for ", model_options_in.format.Describe(),
+                ": rerun `relit-relight cues` and `plan` with this config");
   const fs::path dir = root / "relight" / "partitions" / PartitionDirName(partition);
   const fs::path checkpoint_dir = dir / "checkpoint", log_path = dir / "log.jsonl";
   const fs::path done_path = dir / "train.json";
@@ -88,6 +94,7 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
 
   ModelOptions model_options = model_options_in;
   model_options.max_radiance = plan.max_radiance;
+
   // Everything that changes the trajectory; `steps` and the cadences do not.
   const json fingerprint = {{"model", model_options.ToJson()},
                             {"optimizer", options.optimizer.ToJson()},
@@ -120,14 +127,14 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
     auto timer = record.Time("load_frames");
     Progress progress("load frames", static_cast<int64_t>(part.train_frames.size()));
     for (int index : part.train_frames) {
-      frames.push_back(LoadPlanFrame(workspace, plan.frames[index]));
+      frames.push_back(LoadPlanFrame(workspace, plan.frames[index], model_options.format));
       progress.Advance();
     }
     progress.Finish();
     const int count = std::min<int>(options.max_validation_frames, static_cast<int>(part.validation_frames.size()));
     for (int i = 0; i < count; ++i) {
       const size_t pick = part.validation_frames.size() * (2 * i + 1) / (2 * count);  // evenly spread
-      validation.push_back(LoadPlanFrame(workspace, plan.frames[part.validation_frames[pick]]));
+      validation.push_back(LoadPlanFrame(workspace, plan.frames[part.validation_frames[pick]], model_options.format));
     }
   }
 
@@ -175,6 +182,11 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
   }
   const int64_t trained = result.steps - result.resumed_from;
   record.Set("seconds_per_step", trained > 0 ? seconds / trained : 0.0);
+  // The training budget in CPU time (all threads of this process, frame
+  // loading included); a resumed run counts only its own part.
+  record.Set("process_cpu_s", ProcessCpuSeconds());
+  record.Set("resumed", result.resumed_from > 0);
+  record.Set("input", model_options.format.ToJson());
   record.Write(done_path.string());
   spdlog::info("train: partition {} done: {} steps, loss {:.4f}{}", partition, result.steps, result.final_loss,
                validation.empty() ? std::string() : fmt::format(", validation PSNR {:.2f} dB", result.val_psnr_db));

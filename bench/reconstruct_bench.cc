@@ -1,0 +1,316 @@
+// relit-bench-reconstruct: the reconstruct stage's outputs in a workspace
+// against the synthetic capture's ground truth (relit-synth's truth.json).
+//  1. Proxy: symmetric mean Chamfer distance to the GT object mesh (mm and %
+//     of the GT bounding-box diagonal), board triangles, components,
+//     manifold, watertight.
+//  2. Mattes on the workspace's own trimaps and undistorted frames, side by
+//     side: the binary projected proxy silhouette, relit's closed-form matte
+//     (as written by the stage; solved again for its time) and OpenCV
+//     contrib's information-flow matting (cv::alphamat::infoFlow, Aksoy et
+//     al. 2017): MSE, SAD and seconds per megapixel against GT alpha. The GT
+//     alpha (truth/view_alpha, rendered through the true lens) is resampled
+//     with the workspace's own calibrated undistortion, exactly like the
+//     frames the mattes were computed on.
+// Reads only; results and how to reproduce them: docs/benchmarks.md,
+// section "Reconstruct".
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <opencv2/core.hpp>  // before alphamat.hpp, which does not include it
+#include <opencv2/alphamat.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "bench/bench_util.h"
+#include "calib/undistort.h"
+#include "core/error.h"
+#include "core/image.h"
+#include "core/json_file.h"
+#include "core/main_wrapper.h"
+#include "core/render/mesh.h"
+#include "core/render/scene.h"
+#include "core/workspace.h"
+#include "reconstruct/closed_form_matting.h"
+#include "reconstruct/mesh_cleanup.h"
+#include "reconstruct/trimap.h"
+
+namespace relit::bench {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+struct BenchOptions {
+  std::string workspace;       // W with calib/ and reconstruct/ (read only)
+  std::string synth;           // the relit-synth output W/capture was made from
+  int max_frames = 12;         // matte frames compared (evenly spaced; 0 = all)
+  int chamfer_samples = 50000;
+  double board_band_m = 0.003; // "on the board": all three vertices below this height
+  double footprint_m = 0.01;   // ...and farther than this (XY) from the object's base
+  bool infoflow = true;
+  std::string json_out;
+};
+
+render::TriangleMesh Merge(const std::vector<render::TriangleMesh>& meshes) {
+  render::TriangleMesh out;
+  for (const render::TriangleMesh& m : meshes) {
+    const int base = static_cast<int>(out.positions.size());
+    out.positions.insert(out.positions.end(), m.positions.begin(), m.positions.end());
+    for (const Eigen::Vector3i& t : m.triangles) out.triangles.push_back(t + Eigen::Vector3i::Constant(base));
+  }
+  return out;
+}
+
+json ProxyAccuracy(const BenchOptions& o, const json& truth, const render::TriangleMesh& proxy) {
+  std::vector<render::TriangleMesh> objects;
+  for (const json& object : truth.at("objects")) {
+    objects.push_back(render::LoadMesh((fs::path(o.synth) / object.at("mesh").get<std::string>()).string()));
+  }
+  const render::TriangleMesh gt = Merge(objects);
+  const double diagonal = gt.Bounds().diagonal().norm();
+  const auto start = std::chrono::steady_clock::now();
+  const double chamfer = reconstruct::SymmetricChamferDistance(proxy, gt, o.chamfer_samples);
+  const double chamfer_s = Seconds(start);
+
+  // Board triangles: below the board plane, or lying on it away from the
+  // object's base (GT vertices within 1 cm of the board).
+  std::vector<Eigen::Vector2f> footprint;
+  for (const Eigen::Vector3f& p : gt.positions) {
+    if (p.z() < 0.01f) footprint.push_back(p.head<2>());
+  }
+  int below = 0, on_board = 0;
+  for (const Eigen::Vector3i& t : proxy.triangles) {
+    const Eigen::Vector3f& a = proxy.positions[t[0]];
+    const Eigen::Vector3f& b = proxy.positions[t[1]];
+    const Eigen::Vector3f& c = proxy.positions[t[2]];
+    if (std::min({a.z(), b.z(), c.z()}) <= 0) {
+      ++below;
+      continue;
+    }
+    if (std::max({a.z(), b.z(), c.z()}) >= o.board_band_m) continue;
+    const Eigen::Vector2f centroid = ((a + b + c) / 3).head<2>();
+    float nearest = 1e9f;
+    for (const Eigen::Vector2f& q : footprint) nearest = std::min(nearest, (centroid - q).norm());
+    if (nearest > o.footprint_m) ++on_board;
+  }
+  const reconstruct::MeshStats stats = reconstruct::AnalyseMesh(proxy);
+  return {{"gt_bbox_diagonal_m", diagonal},
+          {"chamfer_mm", chamfer * 1e3},
+          {"chamfer_percent_of_diagonal", 100 * chamfer / diagonal},
+          {"chamfer_samples", o.chamfer_samples},
+          {"chamfer_seconds", chamfer_s},
+          {"faces", stats.faces},
+          {"faces_below_board", below},
+          {"faces_on_board_outside_footprint", on_board},
+          {"components", stats.components},
+          {"manifold", stats.manifold()},
+          {"watertight", stats.closed()},
+          {"boundary_edges", stats.boundary_edges},
+          {"self_intersects", stats.self_intersects},
+          {"volume_m3", stats.volume_m3}};
+}
+
+// Errors of one method summed over frames. The unknown band is where the
+// methods differ; the known regions carry the trimap's own errors (a proxy
+// silhouette off by more than the band), which no matting can undo.
+struct MethodErrors {
+  double mse = 0, mse_unknown = 0, sse_known_fraction = 0, sad = 0, seconds = 0;
+  int frames = 0;
+  void Add(const cv::Mat& alpha, const cv::Mat& truth, const cv::Mat& unknown, double s) {
+    cv::Mat d;
+    cv::subtract(alpha, truth, d, cv::noArray(), CV_64F);
+    const cv::Mat d2 = d.mul(d);
+    mse += cv::mean(d2)[0];
+    mse_unknown += cv::mean(d2, unknown)[0];
+    const double sse = cv::sum(d2)[0];
+    cv::Mat known;
+    cv::bitwise_not(unknown, known);
+    known.convertTo(known, CV_64F, 1.0 / 255);
+    sse_known_fraction += sse > 0 ? cv::sum(d2.mul(known))[0] / sse : 0;
+    sad += cv::norm(d, cv::NORM_L1);
+    seconds += s;
+    ++frames;
+  }
+  json ToJson(double megapixels) const {
+    const double n = std::max(1, frames);
+    return {{"mse", mse / n}, {"mse_unknown_band", mse_unknown / n},
+            {"squared_error_fraction_in_known_regions", sse_known_fraction / n}, {"sad", sad / n},
+            {"seconds_per_frame", seconds / n}, {"seconds_per_megapixel", seconds / n / megapixels}};
+  }
+};
+
+reconstruct::MattingOptions StageMattingOptions(const fs::path& workspace) {
+  reconstruct::MattingOptions m;
+  const fs::path run = workspace / "reconstruct" / "run.json";
+  if (!fs::exists(run)) return m;
+  const json options = ReadJsonFile(run.string(), "run", 1).value("options", json::object());
+  const json matting = options.value("matting", json::object());
+  m.window_radius_px = matting.value("window_radius_px", m.window_radius_px);
+  m.epsilon = matting.value("epsilon", m.epsilon);
+  m.prior_weight = matting.value("prior_weight", m.prior_weight);
+  m.multiscale_min_megapixels = matting.value("multiscale_min_megapixels", m.multiscale_min_megapixels);
+  return m;
+}
+
+json MatteComparison(const BenchOptions& o, const json& truth, const render::TriangleMesh& proxy_mesh,
+                     const ProxyFile& proxy) {
+  const fs::path ws(o.workspace);
+  const CamerasFile cameras = ReadCamerasFile((ws / "calib" / "cameras.json").string());
+  const json capture = ReadJsonFile((ws / "capture" / "capture.json").string(), "capture", 1);
+  std::map<int, int> source_frame;  // capture index -> rendered video frame
+  for (const json& f : capture.at("view_frames")) source_frame[f.at("index")] = f.at("source_frame");
+  const Intrinsics& lens = cameras.devices.at("view");
+  const calib::FrameUndistorter undistorter(lens, cameras.undistorted_view);
+  const reconstruct::MattingOptions matting = StageMattingOptions(ws);
+  render::Scene scene;
+  scene.AddObject(proxy_mesh, render::Material::Lambert(render::Rgb::Constant(0.5f)), 1);
+  scene.Commit();
+
+  std::vector<const ViewMatte*> frames;
+  const size_t n = proxy.mattes.size();
+  const size_t wanted = o.max_frames > 0 ? std::min(n, static_cast<size_t>(o.max_frames)) : n;
+  for (size_t i = 0; i < wanted; ++i) frames.push_back(&proxy.mattes[i * n / wanted]);
+  RELIT_REQUIRE(!frames.empty(), ws.string(), "/reconstruct/proxy.json lists no mattes");
+  MethodErrors binary, relit, infoflow;
+  const double megapixels = cameras.undistorted_view.width * cameras.undistorted_view.height / 1e6;
+  json per_frame = json::array();
+  for (const ViewMatte* vm : frames) {
+    const CalibratedFrame* frame = cameras.Find(vm->view_frame);
+    RELIT_REQUIRE(frame, "matte of ", vm->view_frame, " has no frame in cameras.json");
+    const int index = std::stoi(vm->view_frame.substr(vm->view_frame.find('/') + 1));
+    const json& truth_frame = truth.at("videos").at("view").at("frames").at(source_frame.at(index));
+    cv::Mat gt_distorted = ReadImage((fs::path(o.synth) / truth_frame.at("alpha").get<std::string>()).string()).ToMat();
+    if (gt_distorted.channels() > 1) cv::extractChannel(gt_distorted, gt_distorted, 0);
+    if (gt_distorted.cols != lens.width || gt_distorted.rows != lens.height) {  // capture downscaled the video
+      cv::resize(gt_distorted, gt_distorted, cv::Size(lens.width, lens.height), 0, 0, cv::INTER_AREA);
+    }
+    const cv::Mat gt = undistorter.Remap(gt_distorted);
+    cv::Mat trimap;
+    ReadImage((ws / vm->trimap).string()).ToMat().convertTo(trimap, CV_8U, 255.0);
+    if (trimap.channels() > 1) cv::extractChannel(trimap, trimap, 0);
+    const cv::Mat unknown = trimap == reconstruct::kTrimapUnknown;
+    cv::Mat stored = ReadImage((ws / vm->matte).string()).ToMat();
+    if (stored.channels() > 1) cv::extractChannel(stored, stored, 0);
+
+    auto start = std::chrono::steady_clock::now();
+    const cv::Mat silhouette = reconstruct::ProjectSilhouette(scene, cameras.ViewCamera(*frame));
+    cv::Mat binary_alpha;
+    silhouette.convertTo(binary_alpha, CV_32F, 1.0 / 255.0);
+    binary.Add(binary_alpha, gt, unknown, Seconds(start));
+
+    // relit's matte as the stage wrote it; the solve is repeated for its time.
+    const Image image = ReadImage((ws / frame->image_8bit).string());
+    const cv::Mat colour = image.SelectChannels(std::vector<int>{0, 1, 2}).ToMat();
+    reconstruct::MatteStats stats;
+    start = std::chrono::steady_clock::now();
+    const cv::Mat resolved = reconstruct::SolveClosedFormMatte(colour, trimap, binary_alpha, matting, &stats);
+    const double relit_s = Seconds(start);
+    relit.Add(stored, gt, unknown, relit_s);
+    const double resolve_difference = cv::norm(resolved, stored, cv::NORM_INF);
+
+    json row = {{"frame", vm->view_frame}, {"unknown_px", cv::countNonZero(unknown)},
+                {"relit_resolve_max_difference", resolve_difference}};
+    if (o.infoflow) {
+      const cv::Mat bgr = cv::imread((ws / frame->image_8bit).string(), cv::IMREAD_COLOR);
+      cv::Mat result, alpha;
+      start = std::chrono::steady_clock::now();
+      cv::alphamat::infoFlow(bgr, trimap, result);
+      const double seconds = Seconds(start);
+      result.convertTo(alpha, CV_32F, result.depth() == CV_8U ? 1.0 / 255.0 : 1.0);
+      cv::min(cv::max(alpha, 0.0), 1.0, alpha);
+      infoflow.Add(alpha, gt, unknown, seconds);
+      row["infoflow_seconds"] = seconds;
+    }
+    row["relit_seconds"] = relit_s;
+    per_frame.push_back(row);
+    std::fprintf(stderr, "  %s: %d unknown px, relit %.2f s%s\n", vm->view_frame.c_str(),
+                 row["unknown_px"].get<int>(), relit_s,
+                 o.infoflow ? (", infoFlow " + std::to_string(row["infoflow_seconds"].get<double>()) + " s").c_str()
+                            : "");
+  }
+  json out = {{"frames", frames.size()},
+              {"of_mattes", n},
+              {"image_megapixels", megapixels},
+              {"binary_silhouette", binary.ToJson(megapixels)},
+              {"relit_closed_form", relit.ToJson(megapixels)},
+              {"per_frame", per_frame}};
+  if (o.infoflow) out["opencv_infoflow"] = infoflow.ToJson(megapixels);
+  return out;
+}
+
+void PrintTable(const json& proxy, const json& mattes) {
+  std::printf("\nproxy vs GT mesh: Chamfer %.2f mm = %.2f%% of the GT bbox diagonal (%.1f mm); %d faces, "
+              "%d below the board, %d on the board outside the footprint; %d component(s), manifold %s, "
+              "watertight %s, self-intersecting %s\n",
+              proxy["chamfer_mm"].get<double>(), proxy["chamfer_percent_of_diagonal"].get<double>(),
+              1e3 * proxy["gt_bbox_diagonal_m"].get<double>(), proxy["faces"].get<int>(),
+              proxy["faces_below_board"].get<int>(), proxy["faces_on_board_outside_footprint"].get<int>(),
+              proxy["components"].get<int>(), proxy["manifold"].get<bool>() ? "yes" : "no",
+              proxy["watertight"].get<bool>() ? "yes" : "no", proxy["self_intersects"].get<bool>() ? "yes" : "no");
+  const json& relit = mattes["relit_closed_form"];
+  std::printf("\nmattes vs GT alpha (%d of %d frames, %.3f MP, same trimaps; means per frame)\n",
+              mattes["frames"].get<int>(), mattes["of_mattes"].get<int>(), mattes["image_megapixels"].get<double>());
+  std::printf("%-28s %11s %9s %13s %8s %9s %9s %11s\n", "method", "MSE", "MSE/relit", "MSE unknown", "SE known",
+              "SAD", "SAD/relit", "s/MP");
+  for (const char* key : {"binary_silhouette", "relit_closed_form", "opencv_infoflow"}) {
+    if (!mattes.contains(key)) continue;
+    const json& m = mattes[key];
+    std::printf("%-28s %11.6f %9.2f %13.5f %7.0f%% %9.1f %9.2f %11.3f\n", key, m["mse"].get<double>(),
+                m["mse"].get<double>() / relit["mse"].get<double>(), m["mse_unknown_band"].get<double>(),
+                100 * m["squared_error_fraction_in_known_regions"].get<double>(),
+                m["sad"].get<double>(), m["sad"].get<double>() / relit["sad"].get<double>(),
+                m["seconds_per_megapixel"].get<double>());
+  }
+}
+
+int RunReconstructBench(int argc, char** argv) {
+  CLI::App app{"relit-bench-reconstruct: proxy accuracy and mattes (binary silhouette, relit closed-form, "
+               "OpenCV alphamat::infoFlow) of a workspace against its synthetic ground truth. Reads only."};
+  BenchOptions o;
+  app.add_option("--workspace", o.workspace, "workspace W with calib/ and reconstruct/")->required();
+  app.add_option("--synth", o.synth, "relit-synth output folder (truth.json, truth/) W/capture was made from")
+      ->required();
+  app.add_option("--max-frames", o.max_frames, "matte frames compared, evenly spaced (0 = all)");
+  app.add_option("--chamfer-samples", o.chamfer_samples, "surface samples per mesh for the Chamfer distance");
+  app.add_option("--board-band-m", o.board_band_m, "a face lies on the board when all vertices are below this");
+  app.add_flag("!--no-infoflow", o.infoflow, "skip OpenCV's infoFlow");
+  app.add_option("--json", o.json_out, "also write the results to this JSON file");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  const fs::path ws(o.workspace);
+  const ProxyFile proxy = ReadProxyFile((ws / "reconstruct" / "proxy.json").string());
+  const json truth = ReadJsonFile((fs::path(o.synth) / "truth.json").string(), "synth_truth", 1);
+  const render::TriangleMesh mesh = render::LoadMesh((ws / proxy.mesh).string());
+  const json report = ReadJsonFile((ws / "reconstruct" / "reconstruct_report.json").string(), "reconstruct_report", 1);
+  std::fprintf(stderr, "relit-bench-reconstruct: %s (%s proxy from %s frames), load %s\n", o.workspace.c_str(),
+               report["proxy"].value("method", std::string("?")).c_str(),
+               report["proxy"].contains("input_frames")
+                   ? report["proxy"]["input_frames"].value("device", std::string("?")).c_str() : "?",
+               LoadAverage().c_str());
+  json results = {{"workspace", fs::absolute(ws).string()},
+                  {"synth", fs::absolute(o.synth).string()},
+                  {"date", Today()},
+                  {"load_average", LoadAverage()},
+                  {"proxy_source", report["proxy"]}};
+  results["proxy_source"].erase("frames");
+  results["proxy"] = ProxyAccuracy(o, truth, mesh);
+  results["mattes"] = MatteComparison(o, truth, mesh, proxy);
+  PrintTable(results["proxy"], results["mattes"]);
+  if (!o.json_out.empty()) WriteJsonFile(o.json_out, "bench_reconstruct", 1, results);
+  return 0;
+}
+
+}  // namespace
+}  // namespace relit::bench
+
+int main(int argc, char** argv) { return relit::RunMain(argc, argv, relit::bench::RunReconstructBench); }

@@ -1,0 +1,121 @@
+#include "calib/truth_accuracy.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "core/camera.h"
+#include "core/error.h"
+#include "core/json_file.h"
+#include "core/workspace.h"
+
+namespace relit::calib {
+
+using nlohmann::json;
+
+double Quantile(std::vector<double> values, double q) {
+  if (values.empty()) return NAN;
+  std::sort(values.begin(), values.end());
+  const size_t index = std::min(values.size() - 1, static_cast<size_t>(q * values.size()));
+  return values[index];
+}
+
+double Median(std::vector<double> values) { return Quantile(std::move(values), 0.5); }
+
+BoardSpec BoardSpecFromTruth(const json& truth) {
+  const json& b = truth.at("board");
+  BoardSpec spec;
+  spec.squares_x = b.at("squares_x");
+  spec.squares_y = b.at("squares_y");
+  spec.square_length_m = b.at("square_length_m");
+  spec.marker_length_m = b.at("marker_length_m");
+  spec.dictionary = b.at("dictionary");
+  spec.Check();
+  return spec;
+}
+
+CalibAccuracy MeasureCalibAccuracy(const std::string& workspace, const json& truth) {
+  const json capture = ReadJsonFile(workspace + "/capture/capture.json", "capture", 1);
+  const CamerasFile cameras = ReadCamerasFile(workspace + "/calib/cameras.json");
+  const LightsFile lights = ReadLightsFile(workspace + "/calib/lights.json");
+
+  // Frame name ("view/000012") -> index of the frame in its rendered video.
+  std::map<std::string, int> source_frame;
+  for (const std::string device : {"view", "light", "geometry"}) {
+    const std::string key = device + "_frames";
+    if (!capture.contains(key)) continue;
+    for (const json& f : capture[key]) {
+      char name[64];
+      std::snprintf(name, sizeof(name), "%s/%06d", device.c_str(), f["index"].get<int>());
+      source_frame[name] = f["source_frame"];
+    }
+  }
+  auto truth_frame = [&](const std::string& device, const std::string& name) -> const json& {
+    const auto it = source_frame.find(name);
+    RELIT_REQUIRE(it != source_frame.end(), "calib frame ", name, " is not in ", workspace,
+                  "/capture/capture.json: was calib run on this capture?");
+    RELIT_REQUIRE(truth["videos"].contains(device), "truth.json has no video '", device, "'");
+    return truth["videos"][device]["frames"].at(it->second);
+  };
+
+  std::map<std::string, std::vector<double>> position_mm, rotation_deg;
+  for (const CalibratedFrame& f : cameras.frames) {
+    const Rigid3 truth_pose = Rigid3FromJson(truth_frame(f.device, f.name)["cam_from_world"]);
+    position_mm[f.device].push_back(
+        (f.cam_from_world.Inverse().translation - truth_pose.Inverse().translation).norm() * 1e3);
+    rotation_deg[f.device].push_back(RotationAngle(f.cam_from_world.rotation, truth_pose.rotation) * 180 / M_PI);
+  }
+  CalibAccuracy accuracy;
+  for (const auto& [device, errors] : position_mm) {
+    DeviceAccuracy& d = accuracy.devices[device];
+    d.frames = static_cast<int>(errors.size());
+    d.position_median_mm = Median(errors);
+    d.position_p90_mm = Quantile(errors, 0.9);
+    d.rotation_median_deg = Median(rotation_deg[device]);
+    d.rotation_p90_deg = Quantile(rotation_deg[device], 0.9);
+    // The geometry pass is filmed by phone V: its lens is phone V's.
+    const std::string phone = device == "geometry" ? "view" : device;
+    const auto lens = cameras.devices.find(device);
+    if (lens != cameras.devices.end() && truth["phones"].contains(phone)) {
+      d.focal_error = lens->second.fx / truth["phones"][phone]["intrinsics"]["fx"].get<double>() - 1;
+    }
+  }
+  std::vector<double> flash_mm;
+  for (const FrameLight& l : lights.frames) {
+    if (!l.reliable) continue;
+    const json& t = truth_frame("view", l.view_frame);
+    flash_mm.push_back((l.position_m - Vector3FromJson(t["light_position_world_m"])).norm() * 1e3);
+  }
+  accuracy.flashes = static_cast<int>(flash_mm.size());
+  accuracy.flash_median_mm = Median(flash_mm);
+  accuracy.flash_p90_mm = Quantile(flash_mm, 0.9);
+  return accuracy;
+}
+
+json CalibAccuracy::ToJson() const {
+  json out = json::object();
+  for (const auto& [device, d] : devices) {
+    out["devices"][device] = {{"frames", d.frames},
+                              {"position_median_mm", d.position_median_mm},
+                              {"position_p90_mm", d.position_p90_mm},
+                              {"rotation_median_deg", d.rotation_median_deg},
+                              {"rotation_p90_deg", d.rotation_p90_deg},
+                              {"focal_error", d.focal_error}};
+  }
+  out["flash"] = {{"frames", flashes}, {"median_mm", flash_median_mm}, {"p90_mm", flash_p90_mm}};
+  return out;
+}
+
+std::string CalibAccuracy::Summary() const {
+  std::ostringstream s;
+  s.precision(3);
+  for (const auto& [device, d] : devices) {
+    s << device << ": " << d.frames << " frames, median " << d.position_median_mm << " mm / "
+      << d.rotation_median_deg << " deg (p90 " << d.position_p90_mm << " mm / " << d.rotation_p90_deg
+      << " deg), focal error " << d.focal_error * 100 << "%; ";
+  }
+  s << "flash: " << flashes << " frames, median " << flash_median_mm << " mm (p90 " << flash_p90_mm << " mm)";
+  return s.str();
+}
+
+}  // namespace relit::calib

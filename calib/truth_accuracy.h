@@ -1,0 +1,48 @@
+// Accuracy of a calib/ folder against a synthetic capture's truth.json
+// (relit-synth): camera poses per device, lens focal lengths, flash
+// positions. Shared by calib_synth_test and the calib benchmark; it reads
+// only files (capture.json, cameras.json, lights.json, truth.json).
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/board.h"
+
+namespace relit::calib {
+
+struct DeviceAccuracy {
+  int frames = 0;                    // calibrated frames compared with truth
+  double position_median_mm = 0;     // camera centre error
+  double position_p90_mm = 0;
+  double rotation_median_deg = 0;
+  double rotation_p90_deg = 0;
+  double focal_error = 0;            // calibrated fx / true fx - 1 (0 when the lens is not in truth)
+};
+
+struct CalibAccuracy {
+  std::map<std::string, DeviceAccuracy> devices;  // "view", "light", "geometry" when present
+  int flashes = 0;                   // reliable lights.json frames
+  double flash_median_mm = 0;
+  double flash_p90_mm = 0;
+
+  nlohmann::json ToJson() const;
+  std::string Summary() const;       // one line for logs and test output
+};
+
+// `workspace` holds capture/ and calib/; `truth` is the parsed truth.json
+// of the synthetic capture capture/ was made from. Frames are matched
+// through capture.json's source_frame indices.
+CalibAccuracy MeasureCalibAccuracy(const std::string& workspace, const nlohmann::json& truth);
+
+// The board truth.json says was rendered (its "board" object).
+BoardSpec BoardSpecFromTruth(const nlohmann::json& truth);
+
+double Median(std::vector<double> values);
+// Value at fraction q in [0, 1] of the sorted values (nearest rank).
+double Quantile(std::vector<double> values, double q);
+
+}  // namespace relit::calib
