@@ -94,7 +94,6 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
 
   ModelOptions model_options = model_options_in;
   model_options.max_radiance = plan.max_radiance;
-
   // Everything that changes the trajectory; `steps` and the cadences do not.
   const json fingerprint = {{"model", model_options.ToJson()},
                             {"optimizer", options.optimizer.ToJson()},

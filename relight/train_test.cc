@@ -25,6 +25,13 @@ std::vector<Batch> Frames(int count, int size, uint64_t seed) {
   return frames;
 }
 
+// Mean of v[from, from + window): loss levels at the start and end of a run.
+double WindowMean(const std::vector<double>& v, int from, int window) {
+  double sum = 0;
+  for (int i = from; i < from + window; ++i) sum += v[i];
+  return sum / window;
+}
+
 double MaxRadiance(const std::vector<Batch>& frames) {
   double m = 0;
   for (const auto& f : frames) m = std::max(m, f.target_rgb.max().item<double>());
@@ -64,11 +71,7 @@ TEST(TrainTest, OverfitsATinySyntheticProblem) {
     ASSERT_TRUE(std::isfinite(total.back())) << "step " << s;
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  auto mean = [&](const std::vector<double>& v, int from) {
-    double sum = 0;
-    for (int i = from; i < from + window; ++i) sum += v[i];
-    return sum / window;
-  };
+  auto mean = [&](const std::vector<double>& v, int from) { return WindowMean(v, from, window); };
   const double first = mean(total, 0), last = mean(total, steps - window);
   const double first_rgb = mean(rgb, 0), last_rgb = mean(rgb, steps - window);
   std::printf("loss %.4f -> %.4f (x%.1f), rgb %.4f -> %.4f (x%.1f), %d steps in %.1f s\n", first, last,
@@ -111,11 +114,7 @@ TEST(TrainTest, ShModelOverfitsATinyProblem) {
     rgb.push_back(losses.rgb.item<double>());
     ASSERT_TRUE(std::isfinite(total.back())) << "step " << s;
   }
-  auto mean = [&](const std::vector<double>& v, int from) {
-    double sum = 0;
-    for (int i = from; i < from + window; ++i) sum += v[i];
-    return sum / window;
-  };
+  auto mean = [&](const std::vector<double>& v, int from) { return WindowMean(v, from, window); };
   const double first = mean(total, 0), last = mean(total, steps - window);
   const double first_rgb = mean(rgb, 0), last_rgb = mean(rgb, steps - window);
   std::printf("sh: loss %.4f -> %.4f (x%.1f), rgb %.4f -> %.4f (x%.1f)\n", first, last, first / last, first_rgb,
