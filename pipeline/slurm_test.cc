@@ -30,7 +30,7 @@ class PipelineSlurmTest : public ::testing::Test {
     dir_ = nullptr;
   }
   void SetUp() override {
-    if (!cluster_) GTEST_SKIP() << "cannot start a local Slurm cluster: " << why_not_;
+    if (!cluster_) GTEST_SKIP() << "relit-skip: cannot start a local Slurm cluster: " << why_not_;
     bin_ = dir_->path() / "bin";
     testing::WriteStageScripts(bin_);
     ::setenv("RELIT_TEST_CALLS", (dir_->path() / "calls.txt").c_str(), 1);

@@ -2,9 +2,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <deque>
 #include <map>
 #include <queue>
 #include <unordered_map>
+#include <unordered_set>
 
 #include <Eigen/Eigenvalues>
 
@@ -14,11 +16,67 @@
 namespace relit::reconstruct::atlas {
 namespace {
 
-uint64_t EdgeKey(int a, int b) {
-  return (static_cast<uint64_t>(std::min(a, b)) << 32) | static_cast<uint32_t>(std::max(a, b));
-}
-
 double Cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
+
+// True when two UV boundary segments that share no vertex touch or cross
+// (uniform grid over the boundary's bounding box).
+bool BoundarySelfIntersects(const Chart& chart) {
+  std::map<std::pair<int, int>, int> edge_count;
+  for (const Eigen::Vector3i& t : chart.triangles) {
+    for (int k = 0; k < 3; ++k) edge_count[{std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])}] += 1;
+  }
+  std::vector<std::pair<int, int>> edges;
+  double length = 0;
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(1e300), hi = -lo;
+  for (const auto& [e, count] : edge_count) {
+    if (count != 1) continue;
+    edges.push_back(e);
+    const Eigen::Vector2d &a = chart.uv[e.first], &b = chart.uv[e.second];
+    length += (b - a).norm();
+    lo = lo.cwiseMin(a).cwiseMin(b);
+    hi = hi.cwiseMax(a).cwiseMax(b);
+  }
+  if (edges.size() < 4) return false;
+  const double cell = std::max(length / edges.size(), 1e-12);
+  const int w = std::min(4096, static_cast<int>((hi.x() - lo.x()) / cell) + 1);
+  const int h = std::min(4096, static_cast<int>((hi.y() - lo.y()) / cell) + 1);
+  const double cx = (hi.x() - lo.x()) / w + 1e-300, cy = (hi.y() - lo.y()) / h + 1e-300;
+  std::unordered_map<long, std::vector<int>> grid;
+  for (int i = 0; i < static_cast<int>(edges.size()); ++i) {
+    const Eigen::Vector2d &a = chart.uv[edges[i].first], &b = chart.uv[edges[i].second];
+    const int x0 = std::clamp(static_cast<int>((std::min(a.x(), b.x()) - lo.x()) / cx), 0, w - 1);
+    const int x1 = std::clamp(static_cast<int>((std::max(a.x(), b.x()) - lo.x()) / cx), 0, w - 1);
+    const int y0 = std::clamp(static_cast<int>((std::min(a.y(), b.y()) - lo.y()) / cy), 0, h - 1);
+    const int y1 = std::clamp(static_cast<int>((std::max(a.y(), b.y()) - lo.y()) / cy), 0, h - 1);
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) grid[static_cast<long>(y) * w + x].push_back(i);
+    }
+  }
+  auto side = [](const Eigen::Vector2d& p, const Eigen::Vector2d& q, const Eigen::Vector2d& r) {
+    const double c = Cross2(q - p, r - p);
+    return c > 0 ? 1 : (c < 0 ? -1 : 0);
+  };
+  for (const auto& [key, list] : grid) {
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      for (std::size_t j = i + 1; j < list.size(); ++j) {
+        const auto [a0, a1] = edges[list[i]];
+        const auto [b0, b1] = edges[list[j]];
+        if (a0 == b0 || a0 == b1 || a1 == b0 || a1 == b1) continue;
+        const Eigen::Vector2d &p = chart.uv[a0], &q = chart.uv[a1], &r = chart.uv[b0], &s = chart.uv[b1];
+        if (side(p, q, r) * side(p, q, s) <= 0 && side(r, s, p) * side(r, s, q) <= 0) {
+          // Collinear but disjoint segments are not a crossing.
+          if (side(p, q, r) == 0 && side(p, q, s) == 0 &&
+              (std::max(p.x(), q.x()) < std::min(r.x(), s.x()) || std::max(r.x(), s.x()) < std::min(p.x(), q.x()) ||
+               std::max(p.y(), q.y()) < std::min(r.y(), s.y()) || std::max(r.y(), s.y()) < std::min(p.y(), q.y()))) {
+            continue;
+          }
+          return true;
+        }
+      }
+    }
+  }
+  return false;
+}
 
 }  // namespace
 
@@ -48,22 +106,131 @@ FaceGraph BuildFaceGraph(const render::TriangleMesh& mesh) {
   return g;
 }
 
-Chart MakeChart(const render::TriangleMesh& mesh, std::vector<int> faces) {
+Chart MakeChart(const render::TriangleMesh& mesh, std::vector<int> faces, const std::unordered_set<uint64_t>& cuts) {
   Chart chart;
   chart.faces = std::move(faces);
-  std::unordered_map<int, int> local;
-  for (int f : chart.faces) {
+  const int n = static_cast<int>(chart.faces.size());
+  // Corners around a vertex are one local vertex only when they are linked
+  // through the chart's own faces (a fan): a chart that touches itself at a
+  // vertex gets two copies there and stays a disc.
+  std::vector<int> parent(3 * n);
+  for (int i = 0; i < 3 * n; ++i) parent[i] = i;
+  auto find = [&](int x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  std::unordered_map<uint64_t, std::vector<int>> edge_corners;  // edge -> 3 i + k of its first vertex
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3i& t = mesh.triangles[chart.faces[i]];
+    for (int k = 0; k < 3; ++k) edge_corners[EdgeKey(t[k], t[(k + 1) % 3])].push_back(3 * i + k);
+  }
+  for (const auto& [key, corners] : edge_corners) {
+    if (corners.size() != 2 || cuts.count(key)) continue;
+    const int i = corners[0] / 3, k = corners[0] % 3, j = corners[1] / 3, l = corners[1] % 3;
+    const Eigen::Vector3i &ti = mesh.triangles[chart.faces[i]], &tj = mesh.triangles[chart.faces[j]];
+    // Join the corners at each end of the shared edge.
+    for (int a = 0; a < 2; ++a) {
+      const int ka = (k + a) % 3;
+      for (int b = 0; b < 2; ++b) {
+        const int lb = (l + b) % 3;
+        if (ti[ka] == tj[lb]) parent[find(3 * i + ka)] = find(3 * j + lb);
+      }
+    }
+  }
+  std::unordered_map<int, int> local;  // corner root -> local vertex
+  for (int i = 0; i < n; ++i) {
     Eigen::Vector3i t;
     for (int k = 0; k < 3; ++k) {
-      const int v = mesh.triangles[f][k];
-      auto [it, inserted] = local.emplace(v, static_cast<int>(chart.vertices.size()));
-      if (inserted) chart.vertices.push_back(v);
+      auto [it, inserted] = local.emplace(find(3 * i + k), static_cast<int>(chart.vertices.size()));
+      if (inserted) chart.vertices.push_back(mesh.triangles[chart.faces[i]][k]);
       t[k] = it->second;
     }
     chart.triangles.push_back(t);
   }
   chart.uv.assign(chart.vertices.size(), Eigen::Vector2d::Zero());
   return chart;
+}
+
+std::unordered_set<uint64_t> CutToDisc(const render::TriangleMesh& mesh, const std::vector<int>& faces) {
+  // Interior edges -> the two faces (chart-local) on them.
+  std::unordered_map<uint64_t, std::vector<int>> edge_faces;
+  for (int i = 0; i < static_cast<int>(faces.size()); ++i) {
+    const Eigen::Vector3i& t = mesh.triangles[faces[i]];
+    for (int k = 0; k < 3; ++k) edge_faces[EdgeKey(t[k], t[(k + 1) % 3])].push_back(i);
+  }
+  std::unordered_map<int, std::vector<std::pair<int, uint64_t>>> adjacent;  // face -> (face, edge)
+  std::unordered_set<int> border;
+  for (const auto& [key, list] : edge_faces) {
+    if (list.size() == 2) {
+      adjacent[list[0]].push_back({list[1], key});
+      adjacent[list[1]].push_back({list[0], key});
+    } else {
+      border.insert(static_cast<int>(key >> 32));
+      border.insert(static_cast<int>(key & 0xffffffffu));
+    }
+  }
+  if (border.empty()) return {};  // closed: no cut makes it a disc with this scheme
+  // Breadth-first dual spanning tree from the face nearest the centroid:
+  // cutting every other interior edge leaves a disc.
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (int f : faces) centre += mesh.positions[mesh.triangles[f][0]].cast<double>();
+  centre /= static_cast<double>(faces.size());
+  int root = 0;
+  double best = 1e300;
+  for (int i = 0; i < static_cast<int>(faces.size()); ++i) {
+    const double d = (mesh.positions[mesh.triangles[faces[i]][0]].cast<double>() - centre).squaredNorm();
+    if (d < best) best = d, root = i;
+  }
+  std::vector<bool> reached(faces.size(), false);
+  std::unordered_set<uint64_t> tree;
+  std::deque<int> queue{root};
+  reached[root] = true;
+  while (!queue.empty()) {
+    const int i = queue.front();
+    queue.pop_front();
+    for (const auto& [j, key] : adjacent[i]) {
+      if (reached[j]) continue;
+      reached[j] = true;
+      tree.insert(key);
+      queue.push_back(j);
+    }
+  }
+  std::unordered_set<uint64_t> cuts;
+  std::unordered_map<int, std::vector<uint64_t>> vertex_cuts;
+  for (const auto& [key, list] : edge_faces) {
+    if (list.size() != 2 || tree.count(key)) continue;
+    cuts.insert(key);
+    vertex_cuts[static_cast<int>(key >> 32)].push_back(key);
+    vertex_cuts[static_cast<int>(key & 0xffffffffu)].push_back(key);
+  }
+  // Glue back cut edges that end at an interior vertex (zipping the slits up
+  // from their tips) until only paths around handles and to the border stay.
+  std::vector<int> tips;
+  for (const auto& [v, list] : vertex_cuts) {
+    if (list.size() == 1 && !border.count(v)) tips.push_back(v);
+  }
+  while (!tips.empty()) {
+    const int v = tips.back();
+    tips.pop_back();
+    std::vector<uint64_t>& list = vertex_cuts[v];
+    uint64_t key = 0;
+    bool found = false;
+    for (uint64_t k : list) {
+      if (cuts.count(k)) key = k, found = true;
+    }
+    if (!found) continue;
+    int live = 0;
+    for (uint64_t k : list) live += cuts.count(k) > 0;
+    if (live != 1) continue;
+    cuts.erase(key);
+    const int a = static_cast<int>(key >> 32), b = static_cast<int>(key & 0xffffffffu);
+    const int other = a == v ? b : a;
+    if (border.count(other)) continue;
+    int remaining = 0;
+    for (uint64_t k : vertex_cuts[other]) remaining += cuts.count(k) > 0;
+    if (remaining == 1) tips.push_back(other);
+  }
+  return cuts;
 }
 
 std::vector<std::vector<int>> GrowCharts(const render::TriangleMesh& mesh, const FaceGraph& g,
@@ -256,34 +423,10 @@ ChartQuality NormaliseAndEvaluate(const render::TriangleMesh& mesh, Chart* chart
     stretch_sum += l2 * l2 * face_area;
   }
   q.stretch_l2 = std::sqrt(stretch_sum / area3d);
-  // Self-overlap: the chart's UV area must equal the area it covers; sample
-  // a grid and count points inside more than one triangle.
-  if (q.flipped == 0) {
-    Eigen::Vector2d lo = chart->uv[0], hi = chart->uv[0];
-    for (const Eigen::Vector2d& uv : chart->uv) {
-      lo = lo.cwiseMin(uv);
-      hi = hi.cwiseMax(uv);
-    }
-    const double cell = std::sqrt(area3d / std::max(64.0, 16.0 * n));
-    const int w = static_cast<int>((hi.x() - lo.x()) / cell) + 1, h = static_cast<int>((hi.y() - lo.y()) / cell) + 1;
-    if (static_cast<long>(w) * h < 4000000) {
-      std::vector<uint8_t> count(static_cast<size_t>(w) * h, 0);
-      for (const Eigen::Vector3i& t : chart->triangles) {
-        const Eigen::Vector2d a = chart->uv[t[0]], b = chart->uv[t[1]], c = chart->uv[t[2]];
-        const Eigen::Vector2d tlo = a.cwiseMin(b).cwiseMin(c), thi = a.cwiseMax(b).cwiseMax(c);
-        for (int y = std::max(0, static_cast<int>((tlo.y() - lo.y()) / cell));
-             y <= std::min(h - 1, static_cast<int>((thi.y() - lo.y()) / cell)); ++y) {
-          for (int x = std::max(0, static_cast<int>((tlo.x() - lo.x()) / cell));
-               x <= std::min(w - 1, static_cast<int>((thi.x() - lo.x()) / cell)); ++x) {
-            const Eigen::Vector2d p = lo + Eigen::Vector2d(x + 0.5, y + 0.5) * cell;
-            if (Cross2(b - a, p - a) > 0 && Cross2(c - b, p - b) > 0 && Cross2(a - c, p - c) > 0) {
-              if (++count[static_cast<size_t>(y) * w + x] > 1) q.overlaps = true;
-            }
-          }
-        }
-      }
-    }
-  }
+  // Self-overlap: with every triangle positively oriented the map covers each
+  // point inside its boundary exactly once iff the boundary is a simple
+  // closed curve (degree argument), so test boundary edges for crossings.
+  if (q.flipped == 0) q.overlaps = BoundarySelfIntersects(*chart);
   return q;
 }
 

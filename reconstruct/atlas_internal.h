@@ -2,6 +2,10 @@
 // CGAL parameterisation, packing). Not part of the stage's interface.
 #pragma once
 
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <unordered_set>
 #include <vector>
 
 #include <Eigen/Core>
@@ -27,7 +31,19 @@ struct Chart {
   std::vector<Eigen::Vector3i> triangles;    // local indices, same order as faces
   std::vector<Eigen::Vector2d> uv;           // per local vertex
 };
-Chart MakeChart(const render::TriangleMesh& mesh, std::vector<int> faces);
+// Corners around a vertex share one local vertex only when the chart's faces
+// link them across edges that are not in `cuts` (EdgeKey of global vertices).
+Chart MakeChart(const render::TriangleMesh& mesh, std::vector<int> faces,
+                const std::unordered_set<uint64_t>& cuts = {});
+
+inline uint64_t EdgeKey(int a, int b) {
+  return (static_cast<uint64_t>(std::min(a, b)) << 32) | static_cast<uint32_t>(std::max(a, b));
+}
+
+// Interior edges to cut so that a connected face set with a border (but
+// handles or several border loops) becomes a disc: the complement of a
+// breadth-first dual spanning tree, pruned of every slit ending inside.
+std::unordered_set<uint64_t> CutToDisc(const render::TriangleMesh& mesh, const std::vector<int>& faces);
 
 // Seeded region growing on the face graph; returns face lists.
 std::vector<std::vector<int>> GrowCharts(const render::TriangleMesh& mesh, const FaceGraph& graph,
@@ -53,6 +69,18 @@ struct ChartQuality {
 // Mirrors the chart if most triangles are clockwise, rescales UVs to metres
 // (UV area = surface area) and evaluates it.
 ChartQuality NormaliseAndEvaluate(const render::TriangleMesh& mesh, Chart* chart);
+
+// Parameterises a face set as one chart (LSCM; a single triangle is laid out
+// exactly). True when it is a disc whose map has no flipped, degenerate or
+// overlapping triangle and an L2 stretch <= max_stretch.
+bool ParameterizeChart(const render::TriangleMesh& mesh, std::vector<int> faces, double max_stretch,
+                       Chart* chart, ChartQuality* quality);
+
+// Greedy chart merging: repeatedly takes the smallest chart and merges it
+// with the neighbour it shares the longest seam with whose union still
+// parameterises (ParameterizeChart with max_stretch). Returns the merge count.
+int MergeCharts(const render::TriangleMesh& mesh, const FaceGraph& graph, int max_chart_faces, double max_stretch,
+                std::vector<Chart>* charts);
 
 // Packs charts (UVs in metres) into resolution^2 texels with `gutter` empty
 // texels between charts. Returns false if they do not fit at any scale.

@@ -140,6 +140,7 @@ nlohmann::json CleanupReport::ToJson() const {
   return {{"input_faces", input_faces},           {"cropped_faces", cropped_faces},
           {"non_manifold_repairs", non_manifold_repairs}, {"components_in", components_in},
           {"components_kept", components_kept},   {"holes_filled", holes_filled},
+          {"handles_cut", handles_cut},
           {"output_faces", output_faces}};
 }
 
@@ -220,10 +221,12 @@ render::TriangleMesh CleanupMesh(const render::TriangleMesh& input, const Cleanu
     if (PMP::volume(mesh) < 0) PMP::reverse_face_orientations(mesh);
   }
   render::TriangleMesh out = FromMesh(mesh);
+  if (options.cut_small_handles) report->handles_cut = CutSmallHandles(&out, options.cut_off_fraction);
   report->output_faces = static_cast<int>(out.triangles.size());
-  spdlog::info("cleanup: {} -> {} faces after crop, {} of {} components kept, {} holes filled, {} faces",
-               report->input_faces, report->cropped_faces, report->components_kept,
-               report->components_in, report->holes_filled, report->output_faces);
+  spdlog::info("cleanup: {} -> {} faces after crop, {} of {} components kept, {} holes filled, {} small handles cut, "
+               "{} faces",
+               report->input_faces, report->cropped_faces, report->components_kept, report->components_in,
+               report->holes_filled, report->handles_cut, report->output_faces);
   return out;
 }
 

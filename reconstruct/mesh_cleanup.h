@@ -29,6 +29,7 @@ struct CleanupReport {
   int components_in = 0;
   int components_kept = 0;
   int holes_filled = 0;
+  int handles_cut = 0;              // three-edge loops cut (CutSmallHandles)
   int output_faces = 0;
   nlohmann::json ToJson() const;
 };
@@ -37,6 +38,12 @@ struct CleanupReport {
 // non-manifold while options.repair_non_manifold is false.
 render::TriangleMesh CleanupMesh(const render::TriangleMesh& input, const CleanupOptions& options,
                                  const CropRegion& crop, CleanupReport* report);
+
+// Cuts every loop of three edges that is not a triangle (a tiny handle
+// through the surface) and caps both sides; a loop that cuts off a part of
+// at most small_part_fraction of the faces removes that part instead.
+// Returns the number of loops cut (mesh_handles.cc).
+int CutSmallHandles(render::TriangleMesh* mesh, double small_part_fraction);
 
 struct MeshStats {
   int faces = 0;

@@ -86,6 +86,8 @@ void CleanupOptions::Read(OptionsReader& r) {
   r.ReadRange("target_faces", &target_faces, 100, 10000000);
   r.ReadRange("remesh_iterations", &remesh_iterations, 0, 100);
   r.Read("fair_holes", &fair_holes);
+  r.Read("cut_small_handles", &cut_small_handles);
+  r.ReadRange("cut_off_fraction", &cut_off_fraction, 0.0, 0.5);
   r.Finish();
 }
 
@@ -97,6 +99,7 @@ void CleanupOptions::Check() const {
                 "cleanup.min_component_fraction must be in [0, 1]");
   RELIT_REQUIRE(target_faces >= 100, "cleanup.target_faces must be >= 100, got ", target_faces);
   RELIT_REQUIRE(remesh_iterations >= 0, "cleanup.remesh_iterations must be >= 0");
+  RELIT_REQUIRE(cut_off_fraction >= 0 && cut_off_fraction <= 0.5, "cleanup.cut_off_fraction must be in [0, 0.5]");
 }
 
 nlohmann::json CleanupOptions::ToJson() const {
@@ -107,7 +110,9 @@ nlohmann::json CleanupOptions::ToJson() const {
           {"repair_non_manifold", repair_non_manifold},
           {"target_faces", target_faces},
           {"remesh_iterations", remesh_iterations},
-          {"fair_holes", fair_holes}};
+          {"fair_holes", fair_holes},
+          {"cut_small_handles", cut_small_handles},
+          {"cut_off_fraction", cut_off_fraction}};
 }
 
 void AtlasOptions::Read(OptionsReader& r) {
@@ -118,6 +123,8 @@ void AtlasOptions::Read(OptionsReader& r) {
   r.ReadRange("seam_weight", &seam_weight, 0.0, 100.0);
   r.ReadRange("max_chart_faces", &max_chart_faces, 1, 10000000);
   r.ReadRange("max_stretch", &max_stretch, 1.0, 1000.0);
+  r.Read("merge_charts", &merge_charts);
+  r.ReadRange("merge_max_stretch", &merge_max_stretch, 1.0, 1000.0);
   r.Read("write_preview", &write_preview);
   r.Finish();
 }
@@ -130,6 +137,7 @@ void AtlasOptions::Check() const {
                 "atlas.max_normal_deviation_deg must be in (0, 90)");
   RELIT_REQUIRE(max_chart_faces >= 1, "atlas.max_chart_faces must be >= 1");
   RELIT_REQUIRE(max_stretch >= 1, "atlas.max_stretch must be >= 1");
+  RELIT_REQUIRE(merge_max_stretch >= 1, "atlas.merge_max_stretch must be >= 1");
 }
 
 nlohmann::json AtlasOptions::ToJson() const {
@@ -140,6 +148,8 @@ nlohmann::json AtlasOptions::ToJson() const {
           {"seam_weight", seam_weight},
           {"max_chart_faces", max_chart_faces},
           {"max_stretch", max_stretch},
+          {"merge_charts", merge_charts},
+          {"merge_max_stretch", merge_max_stretch},
           {"write_preview", write_preview}};
 }
 

@@ -74,6 +74,12 @@ struct CleanupOptions {
   int target_faces = 6000;              // after remeshing and decimation
   int remesh_iterations = 3;
   bool fair_holes = true;               // smooth fill of holes (else flat)
+  // Topological noise (tiny tunnels of Poisson surfaces on noisy points):
+  // after decimation every loop of three edges that is not a triangle is cut
+  // and capped; a loop that cuts off at most cut_off_fraction of the faces
+  // (a bubble on a neck) removes that part instead (mesh_handles.cc).
+  bool cut_small_handles = true;
+  double cut_off_fraction = 0.01;
   void Read(OptionsReader& reader);
   void Check() const;
   nlohmann::json ToJson() const;
@@ -93,6 +99,12 @@ struct AtlasOptions {
   // triangle beyond max_stretch (Sander's L2 stretch, normalised per chart)
   // are split in two and parameterised again.
   double max_stretch = 2.0;
+  // Chart merging after growth (noisy surfaces grow many small charts):
+  // adjacent charts, smallest first, longest shared seam first, are merged
+  // while the union is a disc whose LSCM map has no flip or overlap and an
+  // L2 stretch <= merge_max_stretch.
+  bool merge_charts = true;
+  double merge_max_stretch = 1.05;
   bool write_preview = true;
   void Read(OptionsReader& reader);
   void Check() const;

@@ -1,11 +1,13 @@
 // UV atlas: chart growing, LSCM with re-splitting, packing, OBJ output.
 #include "reconstruct/uv_atlas.h"
 
+#include <chrono>
 #include <cmath>
 #include <deque>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <tuple>
 
 #include <spdlog/spdlog.h>
 
@@ -34,6 +36,7 @@ void LayOutTriangle(const render::TriangleMesh& mesh, atlas::Chart* chart) {
 nlohmann::json AtlasStats::ToJson() const {
   return {{"charts", charts},
           {"chart_splits", chart_splits},
+          {"chart_merges", chart_merges},
           {"flipped_triangles", flipped_triangles},
           {"degenerate_triangles", degenerate_triangles},
           {"overlapping_texels", overlapping_texels},
@@ -46,9 +49,32 @@ nlohmann::json AtlasStats::ToJson() const {
           {"texels_per_metre", texels_per_metre}};
 }
 
+namespace atlas {
+
+bool ParameterizeChart(const render::TriangleMesh& mesh, std::vector<int> faces, double max_stretch, Chart* chart,
+                       ChartQuality* quality) {
+  const bool single = faces.size() == 1;
+  *chart = MakeChart(mesh, faces);
+  if (single) {
+    LayOutTriangle(mesh, chart);
+  } else {
+    // Handles (noisy fused surfaces have many tiny tunnels) and enclosed
+    // holes are cut open along a minimal cut graph.
+    if (!IsDisc(*chart)) *chart = MakeChart(mesh, faces, CutToDisc(mesh, faces));
+    if (!IsDisc(*chart) || !ParameterizeLscm(mesh, chart)) return false;
+  }
+  *quality = NormaliseAndEvaluate(mesh, chart);
+  return single || (quality->flipped == 0 && quality->degenerate == 0 && !quality->overlaps &&
+                    quality->stretch_l2 <= max_stretch);
+}
+
+}  // namespace atlas
+
 UvAtlas BuildAtlas(const render::TriangleMesh& mesh, const AtlasOptions& options, AtlasStats* stats) {
   options.Check();
   RELIT_REQUIRE(!mesh.triangles.empty(), "reconstruct: cannot build a UV atlas for an empty mesh");
+  const auto start = std::chrono::steady_clock::now();
+  auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   const atlas::FaceGraph graph = atlas::BuildFaceGraph(mesh);
   std::deque<std::vector<int>> queue;
   for (auto& faces : atlas::GrowCharts(mesh, graph, options)) queue.push_back(std::move(faces));
@@ -58,34 +84,33 @@ UvAtlas BuildAtlas(const render::TriangleMesh& mesh, const AtlasOptions& options
   while (!queue.empty()) {
     std::vector<int> faces = std::move(queue.front());
     queue.pop_front();
-    atlas::Chart chart = atlas::MakeChart(mesh, faces);
-    if (faces.size() == 1) {
-      LayOutTriangle(mesh, &chart);
-      atlas::NormaliseAndEvaluate(mesh, &chart);
-      charts.push_back(std::move(chart));
-      continue;
-    }
-    bool ok = atlas::IsDisc(chart) && atlas::ParameterizeLscm(mesh, &chart);
-    if (ok) {
-      const atlas::ChartQuality q = atlas::NormaliseAndEvaluate(mesh, &chart);
-      ok = q.flipped == 0 && q.degenerate == 0 && !q.overlaps && q.stretch_l2 <= options.max_stretch;
-    }
-    if (ok) {
+    atlas::Chart chart;
+    atlas::ChartQuality quality;
+    if (atlas::ParameterizeChart(mesh, faces, options.max_stretch, &chart, &quality)) {
       charts.push_back(std::move(chart));
       continue;
     }
     ++splits;
     for (auto& piece : atlas::SplitFaces(faces, graph)) queue.push_back(std::move(piece));
   }
+  const int after_splits = static_cast<int>(charts.size());
+  const double split_seconds = seconds();
+  int merges = 0;
+  if (options.merge_charts) {
+    merges = atlas::MergeCharts(mesh, graph, options.max_chart_faces, options.merge_max_stretch, &charts);
+  }
+  const double merge_seconds = seconds() - split_seconds;
   UvAtlas out;
   out.resolution_px = options.resolution_px;
   out.gutter_px = options.gutter_px;
   out.chart_count = static_cast<int>(charts.size());
   double texels_per_metre = 0;
+  const double pack_start = seconds();
   RELIT_REQUIRE(atlas::PackCharts(&charts, options.resolution_px, options.gutter_px, &texels_per_metre),
                 "reconstruct: ", charts.size(), " charts do not fit into a ", options.resolution_px,
                 "^2 atlas with ", options.gutter_px, " gutter texels; lower cleanup.target_faces or raise "
                 "atlas.resolution_px");
+  const double pack_seconds = seconds() - pack_start;
   out.face_chart.assign(mesh.triangles.size(), -1);
   out.corner_uvs.assign(3 * mesh.triangles.size(), Eigen::Vector2f::Zero());
   for (std::size_t c = 0; c < charts.size(); ++c) {
@@ -98,10 +123,13 @@ UvAtlas BuildAtlas(const render::TriangleMesh& mesh, const AtlasOptions& options
   for (int c : out.face_chart) RELIT_CHECK(c >= 0);
   *stats = MeasureAtlas(mesh, out);
   stats->chart_splits = splits;
-  spdlog::info("atlas: {} charts grown, {} after {} splits, utilisation {:.1f}%, L2 stretch {:.3f} (max {:.2f}), "
-               "{} flipped, {} overlapping texels",
-               grown, out.chart_count, splits, 100 * stats->utilisation, stats->stretch_l2_mean,
-               stats->stretch_l2_max, stats->flipped_triangles, stats->overlapping_texels);
+  stats->chart_merges = merges;
+  spdlog::info("atlas: {} charts grown, {} after {} splits, {} after {} merges, utilisation {:.1f}%, L2 stretch "
+               "{:.3f} (max {:.2f}), {} flipped, {} overlapping texels; {:.1f} s growing and splitting, {:.1f} s "
+               "merging, {:.1f} s packing",
+               grown, after_splits, splits, out.chart_count, merges, 100 * stats->utilisation,
+               stats->stretch_l2_mean, stats->stretch_l2_max, stats->flipped_triangles, stats->overlapping_texels,
+               split_seconds, merge_seconds, pack_seconds);
   return out;
 }
 
@@ -118,14 +146,16 @@ void WriteObjWithAtlas(const std::string& path, const render::TriangleMesh& mesh
   obj << "# relit proxy mesh: world (board) frame, metres; per-corner UVs for a " << atlas.resolution_px
       << "^2 atlas\nmtllib " << mtl_name << "\nusemtl proxy\n";
   for (const Eigen::Vector3f& v : mesh.positions) obj << "v " << v.x() << ' ' << v.y() << ' ' << v.z() << '\n';
-  std::map<std::pair<int, int>, int> vt_index;  // (chart, vertex) -> vt
+  // (chart, vertex, uv) -> vt: a chart may hold two copies of a vertex where
+  // it touches itself.
+  std::map<std::tuple<int, int, float, float>, int> vt_index;
   std::vector<int> corner_vt(atlas.corner_uvs.size());
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
     for (int k = 0; k < 3; ++k) {
-      const auto [it, inserted] = vt_index.emplace(std::make_pair(atlas.face_chart[f], mesh.triangles[f][k]),
-                                                   static_cast<int>(vt_index.size()));
+      const Eigen::Vector2f& uv = atlas.corner_uvs[3 * f + k];
+      const auto [it, inserted] = vt_index.emplace(
+          std::make_tuple(atlas.face_chart[f], mesh.triangles[f][k], uv.x(), uv.y()), static_cast<int>(vt_index.size()));
       if (inserted) {
-        const Eigen::Vector2f& uv = atlas.corner_uvs[3 * f + k];
         obj << "vt " << uv.x() << ' ' << uv.y() << '\n';
       }
       corner_vt[3 * f + k] = it->second;

@@ -31,6 +31,7 @@ struct UvAtlas {
 struct AtlasStats {
   int charts = 0;
   int chart_splits = 0;                 // re-splits for flips, overlaps, stretch or topology
+  int chart_merges = 0;                 // adjacent charts merged after splitting
   int flipped_triangles = 0;            // UV orientation opposite to the chart's
   int degenerate_triangles = 0;         // zero UV area
   int overlapping_texels = 0;           // texel centres inside two triangles

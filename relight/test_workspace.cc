@@ -122,7 +122,9 @@ std::string WriteTestTruth(const std::string& dir, bool render_images, int width
   synth::CapturePlan plan = synth::MakeCapturePlan(options, scene);
   plan.eval_intrinsics = plan.eval_intrinsics.Scaled(width_px, height_px);
   const std::string truth = dir + "/truth.json";
-  WriteJsonFile(truth, synth::kTruthKind, synth::kTruthVersion, synth::MakeTruthJson(options, scene, plan, true));
+  // No videos here: only the evaluation set (below) stands in for a render.
+  WriteJsonFile(truth, synth::kTruthKind, synth::kTruthVersion,
+                synth::MakeTruthJson(options, scene, plan, synth::RenderedParts{false, true}));
   const Image sky = render::MakeSkyMap(options.envmap_width_px, plan.sun_elevation_rad, plan.sun_azimuth_rad);
   const Image studio = render::MakeStudioMap(options.envmap_width_px);
   fs::create_directories(dir + "/eval/envmaps");

@@ -55,12 +55,14 @@ void BuildWorkspace(const fs::path& dir) {
   s.out = synth_dir.string();
   s.eval_views = 1;  // nothing here reads the evaluation set
   s.eval_samples_per_pixel = 1;
+  s.geometry_pass = true;  // the report shows geometry-pass frames apart from both phones'
   synth::RunSynthImpl(s);
   const json truth = ReadJsonFile((synth_dir / "truth.json").string(), synth::kTruthKind, synth::kTruthVersion);
   const fs::path ws = dir / "ws";
   capture::CaptureOptions c;
   c.view = (synth_dir / "view.mp4").string();
   c.light = (synth_dir / "light.mp4").string();
+  c.geometry = (synth_dir / "geometry.mp4").string();
   c.out = (ws / "capture").string();
   capture::RunCaptureImpl(c);
   calib::CalibOptions k;
@@ -280,8 +282,13 @@ TEST_F(ReportWorkspaceTest, FullWorkspaceLoadsInChromiumWithoutErrors) {
   for (const std::string part : {"coverage_hemisphere.svg", "proxy_preview_0.png", "atlas_preview.png",
                                  "_trimap.png", "_matte.png", "training_psnr_all.svg", "turntable_env_",
                                  "capture_frames.svg", "trajectories_top.svg", "eval_01", "26.80 / 0.0200 / 0.900",
-                                 "eval_eval_00_point_00_gt.png", "eval_eval_00_point_00_cues_only_error.png"}) {
+                                 "eval_eval_00_point_00_gt.png", "eval_eval_00_point_00_cues_only_error.png",
+                                 "Geometry pass: ", "geometry pass (phone V)"}) {
     EXPECT_NE(html.find(part), std::string::npos) << part;
+  }
+  for (const std::string& src : sources) {
+    if (src.find("trajectories_top.svg") == std::string::npos) continue;
+    EXPECT_NE(ReadFile(ws / "report" / src).find("geometry pass"), std::string::npos) << src;
   }
   EXPECT_EQ(html.find("http://"), std::string::npos);  // nothing fetched from the network
   EXPECT_EQ(html.find("https://"), std::string::npos);

@@ -1,7 +1,8 @@
 // Capture and calibration sections.
 #include <algorithm>
 #include <cmath>
-#include <map>
+#include <utility>
+#include <vector>
 
 #include "core/json_file.h"
 #include "core/workspace.h"
@@ -106,6 +107,11 @@ Section CaptureSection(ReportContext& context) {
                     JsonScalarText(counts.value("light_usable", json())) + " usable, " +
                     JsonScalarText(counts.value("light_kept", json())) + " kept around the kept V frames.");
   html += Table({"frames", "count", "share", "why"}, rows);
+  const size_t geometry_frames = capture.value("geometry_frames", json::array()).size();
+  if (geometry_frames > 0) {
+    html += Paragraph("Geometry pass: " + std::to_string(geometry_frames) +
+                      " frames kept (ambient light; the proxy mesh is built from them).");
+  }
   const int kept = view_counts.value("kept", 0);
   if (kept < 10) {
     html += Warning("only " + std::to_string(kept) + " phone V frames kept: too few to train on");
@@ -152,11 +158,14 @@ Section CalibSection(ReportContext& context) {
     const json report = ReadJsonFile(context.Input("calib/calib_report.json").string(), "calib_report", 1);
     html += "<h3>Residuals and registration</h3>\n";
     std::vector<std::vector<std::string>> rows;
-    for (const std::string device : {"view", "light"}) {
+    const std::vector<std::pair<std::string, std::string>> device_names = {
+        {"view", "phone V (camera)"}, {"light", "phone L (flash)"}, {"geometry", "geometry pass (phone V)"}};
+    for (const auto& [device, name] : device_names) {
+      if (!report["registered"].contains(device)) continue;  // no geometry pass
       const json detection = report["detection"].value(device, json::object());
       const json board_rms = report["refine_board_only"].value("corner_rms_px_by_device", json::object());
       const json joint_rms = report["refine"].value("corner_rms_px_by_device", json::object());
-      rows.push_back({device == "view" ? "phone V (camera)" : "phone L (flash)",
+      rows.push_back({name,
                       JsonScalarText(report["registered"].value(device, json())) + " / " +
                           JsonScalarText(report["registered"].value(device + "_frames", json())),
                       JsonScalarText(detection.value("frames_with_board", json())),
@@ -198,9 +207,16 @@ Section CalibSection(ReportContext& context) {
   // Trajectories: top view and height over time.
   PlotSeries view_top{"phone V", {}, {}, "#1f77b4", true, true, 2.5}, light_top{"phone L", {}, {}, "#7f7f7f", true, true, 2};
   PlotSeries flash_top{"flash", {}, {}, "#ff7f0e", false, true, 2.5};
+  // Geometry-pass frames run on their own clock: top view only.
+  PlotSeries geometry_top{"geometry pass", {}, {}, "#2ca02c", false, true, 2.5};
   PlotSeries view_z = view_top, light_z = light_top, flash_z = flash_top;
   for (const CalibratedFrame& f : cameras.frames) {
     const Eigen::Vector3d c = f.cam_from_world.Inverse().translation;
+    if (f.device == "geometry") {
+      geometry_top.x.push_back(c.x());
+      geometry_top.y.push_back(c.y());
+      continue;
+    }
     PlotSeries& top = f.device == "view" ? view_top : light_top;
     PlotSeries& z = f.device == "view" ? view_z : light_z;
     top.x.push_back(c.x());
@@ -234,7 +250,9 @@ Section CalibSection(ReportContext& context) {
   height.width_px = 560;
   height.height_px = 420;
   html += "<h3>Camera and light trajectories</h3>\n";
-  html += FigureRow({Figure(context.WriteAsset("trajectories_top.svg", PlotSvg(top, {view_top, light_top, flash_top})),
+  std::vector<PlotSeries> top_series = {view_top, light_top, flash_top};
+  if (!geometry_top.x.empty()) top_series.push_back(geometry_top);
+  html += FigureRow({Figure(context.WriteAsset("trajectories_top.svg", PlotSvg(top, top_series)),
                             "Camera centres of both phones and the interpolated flash positions (world frame, "
                             "metres)."),
                      Figure(context.WriteAsset("trajectories_height.svg",

@@ -141,7 +141,7 @@ TEST_F(PipelineTinyTest, RealStagesChainedByTheOrchestrator) {
   EXPECT_NE(out.find("everything is up to date (3 steps)"), std::string::npos) << out;
 
   if (!*kRelight || !*kReport) {
-    GTEST_SKIP() << "relit-relight or relit-report is not built: relight and report not checked";
+    GTEST_SKIP() << "relit-skip: relit-relight or relit-report is not built: relight and report not checked";
   }
   ASSERT_EQ(Run(yaml, {}, &out), 0) << out;
   const json plan = ReadJsonFile((ws / "relight/plan/plan.json").string(), "relight_plan", 1);

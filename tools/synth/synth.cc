@@ -183,13 +183,17 @@ SynthSummary RunSynthImpl(const SynthOptions& options) {
 
   SynthSummary summary;
   summary.light_start_offset_s = plan.light_start_offset_s;
-  if (!options.truth_only) {
+  // eval_only renders the same eval set as a full run: every image has its own
+  // seed stream, so skipping the videos changes no pixel.
+  const RenderedParts parts{!options.truth_only && !options.eval_only, !options.truth_only};
+  if (parts.eval) {
     render::Scene scene;
     synth_scene.AddTo(&scene);
     scene.Commit();
-    std::vector<const VideoPlan*> videos = {&plan.view, &plan.light};
+    std::vector<const VideoPlan*> videos;
+    if (parts.videos) videos = {&plan.view, &plan.light};
     render::EnvironmentLight room;
-    if (!plan.geometry.frames.empty()) {
+    if (parts.videos && !plan.geometry.frames.empty()) {
       videos.push_back(&plan.geometry);
       const Image room_map = render::MakeSoftRoomMap(256);
       WriteImage((root / kGeometryEnvmapPath).string(), room_map, PixelStorage::kFloat);
@@ -211,7 +215,7 @@ SynthSummary RunSynthImpl(const SynthOptions& options) {
     progress.Finish();
   }
   WriteJsonFile((root / "truth.json").string(), kTruthKind, kTruthVersion,
-                MakeTruthJson(options, synth_scene, plan, !options.truth_only));
+                MakeTruthJson(options, synth_scene, plan, parts));
   record.Set("light_start_offset_s", plan.light_start_offset_s);
   record.Set("frames_rendered", summary.frames_rendered);
   record.Set("eval_images", summary.eval_images);
@@ -230,7 +234,8 @@ int RunSynth(int argc, char** argv) {
                "flash lights) with complete ground truth. See docs/synthetic.md."};
   std::string config, preset, size, out, mesh, log_level = "info";
   uint64_t seed = 0;
-  bool geometry_pass = false, truth_only = false;
+  bool geometry_pass = false, truth_only = false, eval_only = false;
+  int eval_views = -1;
   app.add_option("--config", config, "YAML file with SynthOptions (unknown keys are errors)")
       ->check(CLI::ExistingFile);
   app.add_option("--preset", preset, "scene: spot | bunny | spheres | mesh (default spot)");
@@ -240,6 +245,13 @@ int RunSynth(int argc, char** argv) {
   app.add_option("--out", out, "output directory (replaced atomically)");
   app.add_flag("--geometry-pass", geometry_pass, "also render geometry.mp4 under soft ambient light");
   app.add_flag("--truth-only", truth_only, "write truth.json and meshes only, render nothing");
+  app.add_flag("--eval-only", eval_only,
+               "render only the evaluation set (eval/) and truth.json, no videos; same plan and "
+               "pixels as a full run with the same options");
+  app.add_option("--eval-views", eval_views,
+                 "number of held-out eval views (changes the eval lights too: they are drawn after "
+                 "the views; the videos are unchanged)")
+      ->check(CLI::Range(0, 1000));
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
   try {
     app.parse(argc, argv);
@@ -270,6 +282,8 @@ int RunSynth(int argc, char** argv) {
   if (!out.empty()) options.out = out;
   if (geometry_pass) options.geometry_pass = true;
   if (truth_only) options.truth_only = true;
+  if (eval_only) options.eval_only = true;
+  if (eval_views >= 0) options.eval_views = eval_views;
   options.Check();
   RunSynthImpl(options);
   return 0;

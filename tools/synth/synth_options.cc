@@ -85,6 +85,7 @@ void SynthOptions::Read(OptionsReader& r) {
   r.Read("assets_dir", &assets_dir);
   r.Read("geometry_pass", &geometry_pass);
   r.Read("truth_only", &truth_only);
+  r.Read("eval_only", &eval_only);
   r.ReadRange("width_px", &width_px, 16, 8192);
   r.ReadRange("height_px", &height_px, 16, 8192);
   r.ReadRange("fps", &fps, 1, 240);
@@ -141,6 +142,10 @@ void SynthOptions::Check() const {
   RELIT_REQUIRE(std::find(sizes.begin(), sizes.end(), size) != sizes.end(), "unknown size '",
                 size, "' (known: tiny, demo, full)");
   RELIT_REQUIRE(!out.empty(), "no output directory: pass --out DIR");
+  RELIT_REQUIRE(!(truth_only && eval_only),
+                "truth_only and eval_only exclude each other (truth_only renders nothing)");
+  RELIT_REQUIRE(!eval_only || eval_views > 0,
+                "eval_only needs eval_views > 0 (there is nothing else to render)");
   RELIT_REQUIRE(width_px % 2 == 0 && height_px % 2 == 0 && width_px >= 16 && height_px >= 16,
                 "width_px and height_px must be even and >= 16 (H.264 yuv420p), got ", width_px,
                 "x", height_px);
@@ -202,6 +207,7 @@ nlohmann::json SynthOptions::ToJson() const {
       {"preset", preset}, {"mesh_path", mesh_path}, {"mesh_height_m", mesh_height_m},
       {"mesh_y_up", mesh_y_up}, {"size", size}, {"seed", seed}, {"out", out},
       {"assets_dir", assets_dir}, {"geometry_pass", geometry_pass}, {"truth_only", truth_only},
+      {"eval_only", eval_only},
       {"width_px", width_px}, {"height_px", height_px}, {"fps", fps},
       {"frames_per_video", frames_per_video}, {"samples_per_pixel", samples_per_pixel},
       {"max_depth", max_depth}, {"crf", crf}, {"display_rotation_deg", display_rotation_deg},

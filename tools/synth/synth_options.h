@@ -26,6 +26,7 @@ struct SynthOptions {
   std::string assets_dir;            // empty = compiled-in tools/synth/assets
   bool geometry_pass = false;        // also render geometry.mp4 under soft ambient light
   bool truth_only = false;           // write truth.json and meshes, render nothing
+  bool eval_only = false;            // render the evaluation set (and truth.json), no videos
 
   // Video and rendering.
   int width_px = 320;

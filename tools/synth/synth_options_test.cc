@@ -65,6 +65,13 @@ TEST(SynthOptions, RejectsBadValues) {
   o = Valid();
   o.display_rotation_deg = 45;
   ExpectRejected(o, "display_rotation_deg");
+  o = Valid();
+  o.truth_only = o.eval_only = true;
+  ExpectRejected(o, "exclude each other");
+  o = Valid();
+  o.eval_only = true;
+  o.eval_views = 0;
+  ExpectRejected(o, "eval_views > 0");
 }
 
 TEST(SynthOptions, YamlUnknownKeysAndTypesAreErrors) {

@@ -277,9 +277,13 @@ TEST_F(SynthRenderTest, TruthIsDeterministicForASeed) {
   nlohmann::json again = ReadJsonFile(options.out + "/truth.json", kTruthKind, kTruthVersion);
   nlohmann::json first = *truth_;
   EXPECT_TRUE(first["rendered"].get<bool>());
+  EXPECT_TRUE(first["videos_rendered"].get<bool>());
   EXPECT_FALSE(again["rendered"].get<bool>());
-  first.erase("rendered");
-  again.erase("rendered");
+  EXPECT_FALSE(again["videos_rendered"].get<bool>());
+  for (const char* key : {"rendered", "videos_rendered"}) {
+    first.erase(key);
+    again.erase(key);
+  }
   EXPECT_EQ(first.dump(), again.dump());
 
   options.seed = 8;
@@ -329,6 +333,53 @@ TEST_F(SynthRenderTest, EvalSetIsComplete) {
       EXPECT_GT(mean, 0.01) << light;
       EXPECT_LT(mean, 2.0) << light;
     }
+  }
+}
+
+// --eval-only renders the same eval set as the full run (same options, seed
+// 7): same truth plan, and bit-equal pixels because every image has its own
+// seed stream. No videos or mattes are written.
+TEST_F(SynthRenderTest, EvalOnlyEqualsTheFullRunsEvalSet) {
+  SynthOptions options = SynthOptions::ForSize("tiny");
+  options.preset = "spot";
+  options.seed = 7;
+  options.eval_only = true;
+  options.out = (*root_ / "eval_only").string();
+  const SynthSummary summary = RunSynthImpl(options);
+  const fs::path out(options.out);
+  EXPECT_EQ(summary.frames_rendered, 0);
+  EXPECT_FALSE(fs::exists(out / "view.mp4"));
+  EXPECT_FALSE(fs::exists(out / "light.mp4"));
+  EXPECT_FALSE(fs::exists(out / "truth/view_alpha"));
+
+  nlohmann::json eval_only = ReadJsonFile((out / "truth.json").string(), kTruthKind, kTruthVersion);
+  nlohmann::json full = *truth_;
+  EXPECT_TRUE(eval_only["rendered"].get<bool>());  // relit-relight eval accepts it
+  EXPECT_FALSE(eval_only["videos_rendered"].get<bool>());
+  EXPECT_TRUE(full["videos_rendered"].get<bool>());
+  eval_only.erase("videos_rendered");
+  full.erase("videos_rendered");
+  EXPECT_EQ(eval_only.dump(), full.dump());  // same cameras, lights, paths
+
+  std::vector<std::string> files;
+  for (const auto& light : full["eval"]["lights"]) {
+    if (light["type"] == "environment") files.push_back(light["envmap"]);
+  }
+  for (const auto& view : full["eval"]["views"]) {
+    files.push_back(view["alpha"]);
+    for (const auto& [name, path] : view["images"].items()) files.push_back(path);
+  }
+  EXPECT_EQ(summary.eval_images, static_cast<int>(full["eval"]["views"].size() *
+                                                  full["eval"]["lights"].size()));
+  for (const std::string& file : files) {
+    const Image a = ReadImage((out / file).string());
+    const Image b = ReadImage(Capture(file).string());
+    ASSERT_EQ(a.width(), b.width()) << file;
+    ASSERT_EQ(a.height(), b.height()) << file;
+    ASSERT_EQ(a.channels(), b.channels()) << file;
+    size_t differing = 0;
+    for (size_t i = 0; i < a.data().size(); ++i) differing += a.data()[i] != b.data()[i];
+    EXPECT_EQ(differing, 0u) << file << ": eval-only pixels differ from the full run's";
   }
 }
 

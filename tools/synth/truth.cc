@@ -75,13 +75,14 @@ void WriteSceneTruth(const SynthScene& scene, const std::string& out_dir) {
 }
 
 nlohmann::json MakeTruthJson(const SynthOptions& o, const SynthScene& scene, const CapturePlan& plan,
-                             bool rendered) {
+                             RenderedParts rendered) {
   nlohmann::json j;
   j["generator"] = "relit-synth";
   j["preset"] = o.preset;
   j["size"] = o.size;
   j["seed"] = o.seed;
-  j["rendered"] = rendered;
+  j["rendered"] = rendered.eval;
+  j["videos_rendered"] = rendered.videos;
   j["units"] = {{"length", "m"},
                 {"time", "s"},
                 {"angle", "rad"},

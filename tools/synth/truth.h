@@ -30,9 +30,17 @@ constexpr const char* kBoardImagePath = "truth/board.png";
 // Writes meshes, textures and the board image below `out_dir`.
 void WriteSceneTruth(const SynthScene& scene, const std::string& out_dir);
 
-// The truth.json body (without "schema"). `rendered` says whether videos,
-// mattes and the evaluation set were rendered (false for truth_only runs).
+// What a run rendered: a full run both, an eval_only run the evaluation set,
+// a truth_only run nothing. The plan (cameras, lights, paths) is the same.
+struct RenderedParts {
+  bool videos = false;  // the videos and the phone-V / geometry alpha mattes
+  bool eval = false;    // eval/: held-out views x lights, their alpha, the envmaps
+};
+
+// The truth.json body (without "schema"). "rendered" says whether the
+// evaluation images exist (what relit-relight eval checks), "videos_rendered"
+// whether the videos and the per-frame "alpha" files they list exist.
 nlohmann::json MakeTruthJson(const SynthOptions& options, const SynthScene& scene,
-                             const CapturePlan& plan, bool rendered);
+                             const CapturePlan& plan, RenderedParts rendered);
 
 }  // namespace relit::synth
