@@ -139,7 +139,7 @@ bool CutLoop(Topology* topo, int a, int b, int c, std::size_t small_part) {
     std::vector<int> keep;
     for (int f : topo->vertex_faces[v]) {
       if (topo->removed[f]) continue;
-      if (std::find(fans[k].begin(), fans[k].end(), f) != fans[k].end()) {
+      if (holds(fans[k], f)) {
         keep.push_back(f);
       } else {
         for (int j = 0; j < 3; ++j) {
