@@ -50,19 +50,76 @@ BoardCalibration CalibrateFromBoard(const std::vector<const BoardObservation*>& 
     ids.push_back(o->corner_ids);
   }
   const auto board = MakeCharucoBoard(spec);
-  // Start from a 65 degree field of view, centred: phone main cameras.
-  const double f0 = 0.5 * width / std::tan(0.5 * 65.0 * M_PI / 180.0);
-  cv::Mat k = (cv::Mat_<double>(3, 3) << f0, 0, 0.5 * (width - 1), 0, f0, 0.5 * (height - 1), 0, 0, 1);
-  cv::Mat dist = cv::Mat::zeros(1, 5, CV_64F);
-  std::vector<cv::Mat> rvecs, tvecs;
   int flags = cv::CALIB_USE_INTRINSIC_GUESS;
   if (!refine_k3) flags |= cv::CALIB_FIX_K3;
   if (square_pixels) flags |= cv::CALIB_FIX_ASPECT_RATIO;
   if (!refine_tangential) flags |= cv::CALIB_ZERO_TANGENT_DIST;
   BoardCalibration result;
-  result.rms_px = cv::aruco::calibrateCameraCharuco(corners, ids, board, cv::Size(width, height), k, dist,
-                                                    rvecs, tvecs, flags);
-  result.frames_used = static_cast<int>(chosen.size());
+  cv::Mat k, dist;
+  std::vector<cv::Mat> rvecs, tvecs;
+  // Each round judges every detected corner of the frames still in use
+  // against the latest fit, so a corner dropped while outliers pulled the
+  // first fit comes back.
+  const std::vector<std::vector<cv::Point2f>> detected = corners;
+  const std::vector<std::vector<int>> detected_ids = ids;
+  std::vector<size_t> frame_of(detected.size());
+  for (size_t f = 0; f < frame_of.size(); ++f) frame_of[f] = f;
+  for (int round = 0; round < 5; ++round) {
+    // Start from a 65 degree field of view, centred: phone main cameras.
+    const double f0 = 0.5 * width / std::tan(0.5 * 65.0 * M_PI / 180.0);
+    k = (cv::Mat_<double>(3, 3) << f0, 0, 0.5 * (width - 1), 0, f0, 0.5 * (height - 1), 0, 0, 1);
+    dist = cv::Mat::zeros(1, 5, CV_64F);
+    result.rms_px = cv::aruco::calibrateCameraCharuco(corners, ids, board, cv::Size(width, height), k, dist,
+                                                      rvecs, tvecs, flags);
+    if (round == 4) break;
+    std::vector<std::vector<double>> errors(frame_of.size());
+    std::vector<double> all;
+    for (size_t f = 0; f < frame_of.size(); ++f) {
+      std::vector<cv::Point3f> object;
+      for (int id : detected_ids[frame_of[f]]) object.push_back(board->chessboardCorners[id]);
+      std::vector<cv::Point2f> projected;
+      cv::projectPoints(object, rvecs[f], tvecs[f], k, dist, projected);
+      for (size_t i = 0; i < projected.size(); ++i) {
+        errors[f].push_back(cv::norm(projected[i] - detected[frame_of[f]][i]));
+        all.push_back(errors[f].back());
+      }
+    }
+    std::nth_element(all.begin(), all.begin() + all.size() / 2, all.end());
+    const double threshold = std::max(0.5, 3 * 1.4826 * all[all.size() / 2]);
+    bool changed = false;
+    std::vector<std::vector<cv::Point2f>> kept_corners;
+    std::vector<std::vector<int>> kept_ids;
+    std::vector<size_t> kept_frames;
+    for (size_t f = 0; f < frame_of.size(); ++f) {
+      std::vector<cv::Point2f> c;
+      std::vector<int> id;
+      for (size_t i = 0; i < errors[f].size(); ++i) {
+        if (errors[f][i] <= threshold) {
+          c.push_back(detected[frame_of[f]][i]);
+          id.push_back(detected_ids[frame_of[f]][i]);
+        }
+      }
+      changed = changed || id != ids[f];
+      // A frame left with too few corners would only add an unconstrained pose.
+      if (static_cast<int>(id.size()) < std::max(4, min_corners)) continue;
+      kept_corners.push_back(c);
+      kept_ids.push_back(id);
+      kept_frames.push_back(frame_of[f]);
+    }
+    if (!changed) break;
+    RELIT_REQUIRE(kept_frames.size() >= 3, "phone ", device, ": only ", kept_frames.size(),
+                  " frames keep enough ChArUco corners after dropping outliers; film the board "
+                  "sharper and larger");
+    corners = kept_corners;
+    ids = kept_ids;
+    frame_of = kept_frames;
+  }
+  result.corners_rejected = 0;
+  for (const auto& frame_ids : detected_ids) result.corners_rejected += static_cast<int>(frame_ids.size());
+  for (const auto& frame_ids : ids) result.corners_used += static_cast<int>(frame_ids.size());
+  result.corners_rejected -= result.corners_used;
+  result.frames_used = static_cast<int>(corners.size());
+  for (const auto& frame_ids : ids) result.corners_used += static_cast<int>(frame_ids.size());
   // Degenerate motion: a lens needs board views from different directions.
   std::vector<Eigen::Vector3d> normals;
   for (const cv::Mat& r : rvecs) normals.push_back(RotationFromRvec(r).col(2));

@@ -148,11 +148,14 @@ BoardCalibration InitialLens(const std::vector<CalibFrame>& frames, const std::s
   *report = {{"source", *fixed ? "board images " + folder : "capture frames"},
              {"frames_used", c.frames_used},
              {"rms_px", c.rms_px},
+             {"corners_used", c.corners_used},
+             {"corners_rejected", c.corners_rejected},
              {"board_view_angle_span_deg", c.view_angle_span_deg},
              {"fixed_in_refinement", *fixed}};
-  spdlog::info("lens {}: f = {:.2f}, {:.2f} px, c = {:.2f}, {:.2f} px, RMS {:.3f} px over {} frames ({})",
+  spdlog::info("lens {}: f = {:.2f}, {:.2f} px, c = {:.2f}, {:.2f} px, RMS {:.3f} px over {} frames, "
+               "{} outlier corners dropped ({})",
                device, c.intrinsics.fx, c.intrinsics.fy, c.intrinsics.cx, c.intrinsics.cy, c.rms_px,
-               c.frames_used, *fixed ? "board images" : "capture frames");
+               c.frames_used, c.corners_rejected, *fixed ? "board images" : "capture frames");
   return c;
 }
 

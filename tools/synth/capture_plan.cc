@@ -16,6 +16,7 @@ constexpr double kDegToRad = M_PI / 180.0;
 
 enum Stream : uint64_t {
   kViewPath = 1, kLightPath, kGeometryPath, kOffset, kClaps, kEval, kLightDirection, kSun,
+  kBoardClip,
 };
 
 std::string Numbered(const std::string& prefix, int i) {
@@ -61,6 +62,40 @@ VideoPlan SampleVideo(const std::string& name, const std::string& phone, const s
       frame.light_position_world =
           flash_path->CamFromWorld(frame.t_common_s).Inverse() * flash_offset_cam_m;
     }
+    video.frames.push_back(frame);
+  }
+  return video;
+}
+
+// A lens-calibration clip as people film one: the board (object removed)
+// filling most of the frame, tilted 10-50 degrees towards every side, turned
+// about the optical axis, aimed at varied points so that corners reach every
+// part of the image, including the distorted edges.
+VideoPlan BoardClip(const std::string& phone, const Intrinsics& intrinsics, const BoardSpec& board,
+                    int frame_count, uint64_t seed) {
+  VideoPlan video;
+  video.name = phone + "_board_clip";
+  video.phone = phone;
+  video.lighting = "environment";
+  video.intrinsics = intrinsics;
+  uint64_t state = seed;
+  const double half_width = 0.5 * board.width_m(), half_height = 0.5 * board.height_m();
+  // Distance at which the board's longer side spans the image width.
+  const double fill_distance_m = half_width * intrinsics.fx / (0.5 * intrinsics.width);
+  constexpr double kGoldenAngle = 2.39996322972865332;
+  for (int i = 0; i < frame_count; ++i) {
+    const double tilt = (10 + 40 * UniformFromState(&state)) * kDegToRad;
+    const double azimuth = i * kGoldenAngle + 0.3 * UniformFromState(&state);
+    const double distance = fill_distance_m * (0.75 + 0.45 * UniformFromState(&state));
+    const Eigen::Vector3d aim(half_width * 0.5 * (2 * UniformFromState(&state) - 1),
+                              half_height * 0.5 * (2 * UniformFromState(&state) - 1), 0.0);
+    const Eigen::Vector3d direction(std::sin(tilt) * std::cos(azimuth), std::sin(tilt) * std::sin(azimuth),
+                                    std::cos(tilt));
+    const double roll = (2 * UniformFromState(&state) - 1) * 35 * kDegToRad;
+    const Eigen::Vector3d up(std::cos(azimuth + M_PI + roll), std::sin(azimuth + M_PI + roll), 0.0);
+    FramePlan frame;
+    frame.index = i;
+    frame.cam_from_world = LookAt(aim + distance * direction, aim, up);
     video.frames.push_back(frame);
   }
   return video;
@@ -132,6 +167,13 @@ CapturePlan MakeCapturePlan(const SynthOptions& o, const SynthScene& scene) {
     plan.geometry = SampleVideo("geometry", "view", "environment", plan.view_intrinsics,
                                 geometry_path, nullptr, Eigen::Vector3d::Zero(), 0.0,
                                 o.frames_per_video, o.fps);
+  }
+
+  if (o.board_clip_frames > 0) {
+    plan.view_board_clip = BoardClip("view", plan.view_intrinsics, o.board, o.board_clip_frames,
+                                     SubSeed(o.seed, kBoardClip));
+    plan.light_board_clip = BoardClip("light", plan.light_intrinsics, o.board, o.board_clip_frames,
+                                      SubSeed(o.seed, kBoardClip + 100));
   }
 
   // Held-out evaluation views: away from every phone-V view direction.

@@ -62,6 +62,9 @@ struct CapturePlan {
   std::vector<double> clap_times_common_s;
   double sun_elevation_rad = 0, sun_azimuth_rad = 0;
   VideoPlan view, light, geometry;  // geometry.frames empty unless requested
+  // Board-only lens-calibration clips (empty unless board_clip_frames > 0);
+  // their frames' times are meaningless (a separate session).
+  VideoPlan view_board_clip, light_board_clip;
   std::vector<EvalView> eval_views;
   std::vector<EvalLight> eval_lights;
   HandheldPathParams view_path, light_path, geometry_path;

@@ -114,6 +114,42 @@ void RenderVideo(const SynthOptions& o, const VideoPlan& video, int video_index,
   encoder.Finish();
 }
 
+// Board-only frames as PNG files (what a user exports from a board video):
+// the object removed, lit by the room so no flash shadows the print.
+void RenderBoardClip(const SynthOptions& o, const VideoPlan& clip, int clip_index,
+                     const SynthScene& synth_scene, const render::EnvironmentLight& room,
+                     const fs::path& root, Progress* progress) {
+  render::Scene scene;
+  for (const SynthObject& object : synth_scene.objects) {
+    if (object.object_id == kBoardObjectId || object.object_id == kTableObjectId) {
+      scene.AddObject(object.mesh, object.material, object.object_id);
+    }
+  }
+  scene.Commit();
+  scene.SetEnvironment(room);
+  SensorParams sensor;
+  sensor.exposure = o.exposure;
+  sensor.full_well_e = o.full_well_e;
+  sensor.read_noise_e = o.read_noise_e;
+  const fs::path folder = root / BoardClipFolder(clip.phone);
+  fs::create_directories(folder);
+  for (const FramePlan& frame : clip.frames) {
+    const uint64_t stream = kRender + 8000000 + static_cast<uint64_t>(clip_index) * 10000 + frame.index;
+    const render::RenderResult result =
+        render::RenderImage(scene, Camera(clip.intrinsics, frame.cam_from_world),
+                            FrameRenderOptions(o.samples_per_pixel, o.max_depth, SubSeed(o.seed, stream), {}));
+    const std::vector<uint8_t> rgb = SensorCapture(result.radiance, sensor, SubSeed(o.seed, stream), 1);
+    Image png(o.width_px, o.height_px, 3);
+    for (int y = 0; y < o.height_px; ++y) {
+      for (int x = 0; x < o.width_px; ++x) {
+        for (int c = 0; c < 3; ++c) png.at(x, y, c) = rgb[(static_cast<size_t>(y) * o.width_px + x) * 3 + c] / 255.0f;
+      }
+    }
+    WriteImage((root / BoardClipFramePath(clip.phone, frame.index)).string(), png, PixelStorage::kUint8);
+    progress->Advance();
+  }
+}
+
 int RenderEvalSet(const SynthOptions& o, const CapturePlan& plan, const SynthScene& synth_scene,
                   render::Scene* scene, const fs::path& root, Progress* progress) {
   const Image sky = render::MakeSkyMap(o.envmap_width_px, plan.sun_elevation_rad, plan.sun_azimuth_rad);
@@ -193,20 +229,27 @@ SynthSummary RunSynthImpl(const SynthOptions& options) {
     std::vector<const VideoPlan*> videos;
     if (parts.videos) videos = {&plan.view, &plan.light};
     render::EnvironmentLight room;
-    if (parts.videos && !plan.geometry.frames.empty()) {
-      videos.push_back(&plan.geometry);
+    const bool clips = parts.videos && !plan.view_board_clip.frames.empty();
+    if (parts.videos && (!plan.geometry.frames.empty() || clips)) {
       const Image room_map = render::MakeSoftRoomMap(256);
       WriteImage((root / kGeometryEnvmapPath).string(), room_map, PixelStorage::kFloat);
       room = render::EnvironmentLight(room_map, static_cast<float>(options.geometry_ambient_scale));
     }
+    if (parts.videos && !plan.geometry.frames.empty()) videos.push_back(&plan.geometry);
     int total = static_cast<int>(plan.eval_views.size() * plan.eval_lights.size());
     for (const VideoPlan* video : videos) total += static_cast<int>(video->frames.size());
+    if (clips) total += static_cast<int>(plan.view_board_clip.frames.size() + plan.light_board_clip.frames.size());
     Progress progress("render", total);
     for (size_t i = 0; i < videos.size(); ++i) {
       auto timer = record.Time("render_" + videos[i]->name);
       RenderVideo(options, *videos[i], static_cast<int>(i), synth_scene, &scene, room, root,
                   videos[i]->phone == "view", &progress);
       summary.frames_rendered += static_cast<int>(videos[i]->frames.size());
+    }
+    if (clips) {
+      auto timer = record.Time("render_board_clips");
+      RenderBoardClip(options, plan.view_board_clip, 0, synth_scene, room, root, &progress);
+      RenderBoardClip(options, plan.light_board_clip, 1, synth_scene, room, root, &progress);
     }
     {
       auto timer = record.Time("render_eval");
@@ -235,7 +278,7 @@ int RunSynth(int argc, char** argv) {
   std::string config, preset, size, out, mesh, log_level = "info";
   uint64_t seed = 0;
   bool geometry_pass = false, truth_only = false, eval_only = false;
-  int eval_views = -1;
+  int eval_views = -1, board_clip = -1;
   app.add_option("--config", config, "YAML file with SynthOptions (unknown keys are errors)")
       ->check(CLI::ExistingFile);
   app.add_option("--preset", preset, "scene: spot | bunny | spheres | mesh (default spot)");
@@ -251,6 +294,10 @@ int RunSynth(int argc, char** argv) {
   app.add_option("--eval-views", eval_views,
                  "number of held-out eval views (changes the eval lights too: they are drawn after "
                  "the views; the videos are unchanged)")
+      ->check(CLI::Range(0, 1000));
+  app.add_option("--board-clip", board_clip,
+                 "also render N board-only frames per phone for lens calibration into "
+                 "board_clip/view and board_clip/light (calib's intrinsics.*_board_images)")
       ->check(CLI::Range(0, 1000));
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
   try {
@@ -284,6 +331,7 @@ int RunSynth(int argc, char** argv) {
   if (truth_only) options.truth_only = true;
   if (eval_only) options.eval_only = true;
   if (eval_views >= 0) options.eval_views = eval_views;
+  if (board_clip >= 0) options.board_clip_frames = board_clip;
   options.Check();
   RunSynthImpl(options);
   return 0;

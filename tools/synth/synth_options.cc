@@ -86,6 +86,7 @@ void SynthOptions::Read(OptionsReader& r) {
   r.Read("geometry_pass", &geometry_pass);
   r.Read("truth_only", &truth_only);
   r.Read("eval_only", &eval_only);
+  r.ReadRange("board_clip_frames", &board_clip_frames, 0, 1000);
   r.ReadRange("width_px", &width_px, 16, 8192);
   r.ReadRange("height_px", &height_px, 16, 8192);
   r.ReadRange("fps", &fps, 1, 240);
@@ -207,7 +208,7 @@ nlohmann::json SynthOptions::ToJson() const {
       {"preset", preset}, {"mesh_path", mesh_path}, {"mesh_height_m", mesh_height_m},
       {"mesh_y_up", mesh_y_up}, {"size", size}, {"seed", seed}, {"out", out},
       {"assets_dir", assets_dir}, {"geometry_pass", geometry_pass}, {"truth_only", truth_only},
-      {"eval_only", eval_only},
+      {"eval_only", eval_only}, {"board_clip_frames", board_clip_frames},
       {"width_px", width_px}, {"height_px", height_px}, {"fps", fps},
       {"frames_per_video", frames_per_video}, {"samples_per_pixel", samples_per_pixel},
       {"max_depth", max_depth}, {"crf", crf}, {"display_rotation_deg", display_rotation_deg},

@@ -27,6 +27,10 @@ struct SynthOptions {
   bool geometry_pass = false;        // also render geometry.mp4 under soft ambient light
   bool truth_only = false;           // write truth.json and meshes, render nothing
   bool eval_only = false;            // render the evaluation set (and truth.json), no videos
+  // Per phone: frames of the board alone (object removed, room light) at
+  // varied tilts and distances, written to board_clip/<phone>/ as PNGs for
+  // calib's lens calibration (intrinsics.*_board_images). 0 = none.
+  int board_clip_frames = 0;
 
   // Video and rendering.
   int width_px = 320;

@@ -52,6 +52,10 @@ nlohmann::json VideoJson(const VideoPlan& video, const SynthOptions& o, bool wit
 std::string AlphaPath(const std::string& video, int frame) {
   return "truth/" + video + "_alpha/" + FrameNumber(frame) + ".exr";
 }
+std::string BoardClipFolder(const std::string& phone) { return "board_clip/" + phone; }
+std::string BoardClipFramePath(const std::string& phone, int frame) {
+  return BoardClipFolder(phone) + "/" + FrameNumber(frame) + ".png";
+}
 std::string EvalImagePath(const std::string& view, const std::string& light) {
   return "eval/" + view + "/" + light + ".exr";
 }
@@ -135,6 +139,19 @@ nlohmann::json MakeTruthJson(const SynthOptions& o, const SynthScene& scene, con
                  {"light", {{"intrinsics", ToJson(plan.light_intrinsics)}, {"flash", true}}}};
   j["videos"] = {{"view", VideoJson(plan.view, o, true)}, {"light", VideoJson(plan.light, o, false)}};
   if (!plan.geometry.frames.empty()) j["videos"]["geometry"] = VideoJson(plan.geometry, o, true);
+  for (const VideoPlan* clip : {&plan.view_board_clip, &plan.light_board_clip}) {
+    if (clip->frames.empty()) continue;
+    nlohmann::json poses = nlohmann::json::array();
+    for (const FramePlan& f : clip->frames) {
+      poses.push_back({{"image", BoardClipFramePath(clip->phone, f.index)},
+                       {"cam_from_world", ToJson(f.cam_from_world)}});
+    }
+    j["board_clips"][clip->phone] = {{"folder", BoardClipFolder(clip->phone)},
+                                     {"intrinsics", ToJson(clip->intrinsics)},
+                                     {"environment", {{"file", kGeometryEnvmapPath},
+                                                      {"scale", o.geometry_ambient_scale}}},
+                                     {"frames", poses}};
+  }
 
   nlohmann::json objects = nlohmann::json::array(), background = nlohmann::json::array();
   for (const SynthObject& object : scene.objects) {

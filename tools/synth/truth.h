@@ -19,6 +19,8 @@ constexpr int kTruthVersion = 1;
 // Relative paths of per-frame and per-view files, shared by the renderer and
 // the truth writer.
 std::string AlphaPath(const std::string& video, int frame);   // truth/<video>_alpha/NNNNNN.exr
+std::string BoardClipFolder(const std::string& phone);          // board_clip/<phone>
+std::string BoardClipFramePath(const std::string& phone, int frame);  // board_clip/<phone>/NNNNNN.png
 std::string EvalImagePath(const std::string& view, const std::string& light);  // eval/<view>/<light>.exr
 std::string EvalAlphaPath(const std::string& view);           // eval/<view>/alpha.exr
 std::string EnvmapPath(const std::string& name);              // eval/envmaps/<name>.exr
