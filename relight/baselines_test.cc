@@ -199,6 +199,15 @@ TEST_F(BaselinesTest, ShBaselineFlowsThroughEveryStepAndCompares) {
     EXPECT_NE(table.find("eval: dnl_1_basis"), std::string::npos) << table;
   }
   EXPECT_THROW(CompareEvaluations({{dir_ + "/nowhere", ""}}), Error);
+  // Evaluations clipped at different white levels are not comparable.
+  EXPECT_NE(table.find("clipped at 1 (eval.clip_radiance)"), std::string::npos) << table;
+  const std::string unclipped = dir_ + "/unclipped_eval";
+  fs::create_directories(unclipped);
+  json other = ReadJsonFile(ws + "/relight/eval/eval.json", "eval", 1);
+  other["clip_radiance"] = 0;
+  WriteJsonFile(unclipped + "/eval.json", "eval", 1, other);
+  EXPECT_EQ(CompareEvaluations({{unclipped, ""}}).find("clipped at"), std::string::npos);
+  EXPECT_THROW(CompareEvaluations({{ws + "/relight/eval", "sh"}, {unclipped, ""}}), Error);
 }
 
 TEST(BaselineOptions, UnknownInputsAndBasesAreErrors) {

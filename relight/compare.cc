@@ -76,6 +76,8 @@ std::string CompareEvaluations(const std::vector<CompareInput>& inputs) {
   };
   std::vector<Row> rows;
   std::string truth;
+  double clip = -1;  // eval.json "clip_radiance"; files from before it existed were not clipped (0)
+  std::string clip_from;
   for (const CompareInput& input : inputs) {
     const fs::path path = fs::path(input.eval_dir) / "eval.json";
     RELIT_REQUIRE(fs::exists(path), "compare: ", path.string(), " is missing (run relit-relight eval --out ",
@@ -86,6 +88,11 @@ std::string CompareEvaluations(const std::vector<CompareInput>& inputs) {
     if (truth.empty()) truth = this_truth;
     RELIT_REQUIRE(this_truth == truth, "compare: ", where, " scored against ", this_truth, ", the first against ",
                   truth, ": rows would not be comparable");
+    const double this_clip = j.value("clip_radiance", 0.0);
+    if (clip < 0) clip = this_clip, clip_from = where;
+    RELIT_REQUIRE(this_clip == clip, "compare: ", where, " clipped radiance at ", this_clip, ", ", clip_from, " at ",
+                  clip, " (0 = no clip): rows would not be comparable; re-run relit-relight eval with the same "
+                  "eval.clip_radiance");
     for (const std::string& t : JsonField(j, "light_types", where).get<std::vector<std::string>>()) {
       if (std::find(types.begin(), types.end(), t) == types.end()) types.push_back(t);
     }
@@ -119,9 +126,12 @@ std::string CompareEvaluations(const std::vector<CompareInput>& inputs) {
       rows.push_back(by_method[method]);
     }
   }
-  std::string md = fmt::format("Truth: `{}`. Cells: PSNR (dB) / MAE / SSIM, linear, on the GT foreground. "
-                               "Budget: training process CPU time (train + augment).\n\n| method | steps | budget |",
-                               truth);
+  std::string md = fmt::format("Truth: `{}`. Cells: PSNR (dB) / MAE / SSIM, linear, on the GT foreground, {}. "
+                               "Budget: training process CPU time (train + augment).\n\n| method ({}) | steps | budget |",
+                               truth,
+                               clip > 0 ? fmt::format("render and truth clipped at {:g} (eval.clip_radiance)", clip)
+                                        : std::string("not clipped"),
+                               clip > 0 ? fmt::format("clip {:g}", clip) : std::string("no clip"));
   for (const std::string& t : types) md += " " + t + " |";
   md += " all |\n|---|---|---|";
   for (size_t i = 0; i <= types.size(); ++i) md += "---|";

@@ -10,6 +10,8 @@
 // train.json files (W/relight/partitions/KK/, plus W/relight/augment/KK/ for
 // the final model of an augmented workspace). A train.json without
 // process_cpu_s (older relit) shows its wall time instead, marked "wall".
+// All evaluations must share the truth and eval.json "clip_radiance"
+// (absent: 0, not clipped); the header names both.
 #pragma once
 
 #include <string>

@@ -51,6 +51,7 @@ void EvalOptions::Read(OptionsReader& r) {
   r.ReadRange("baseline_resolution_px", &baseline_resolution_px, 1, 4096);
   r.ReadRange("baseline_ridge", &baseline_ridge, 0.0, 1e9);
   r.ReadRange("error_map_scale", &error_map_scale, 0.0, 1e6);
+  r.ReadRange("clip_radiance", &clip_radiance, 0.0, 1e9);
   r.Read("write_images", &write_images);
   r.Finish();
   Check();
@@ -69,6 +70,7 @@ void EvalOptions::Check() const {
   RELIT_REQUIRE(baseline_resolution_px >= 1, "eval.baseline_resolution_px must be >= 1");
   RELIT_REQUIRE(baseline_ridge >= 0, "eval.baseline_ridge must be >= 0");
   RELIT_REQUIRE(error_map_scale > 0, "eval.error_map_scale must be > 0");
+  RELIT_REQUIRE(clip_radiance >= 0, "eval.clip_radiance must be >= 0 (the capture's linear white level; 0 = no clip)");
 }
 
 json EvalOptions::ToJson() const {
@@ -79,6 +81,7 @@ json EvalOptions::ToJson() const {
           {"baseline_resolution_px", baseline_resolution_px},
           {"baseline_ridge", baseline_ridge},
           {"error_map_scale", error_map_scale},
+          {"clip_radiance", clip_radiance},
           {"write_images", write_images}};
 }
 
@@ -188,6 +191,16 @@ Image Scaled(Image image, double factor) {
   return image;
 }
 
+// How relit-capture linearised phone V's video (capture.json
+// inputs.view.transfer_used: srgb, gamma2.2, hlg, pq); "" without a
+// capture.json (a workspace not made by relit-capture, e.g. test fixtures).
+std::string CaptureTransfer(const fs::path& root) {
+  const fs::path path = root / "capture" / "capture.json";
+  if (!fs::exists(path)) return "";
+  const json capture = ReadJsonFile(path.string(), "capture", 1);
+  return capture.value("inputs", json::object()).value("view", json::object()).value("transfer_used", std::string());
+}
+
 void RequireSize(const Image& image, const Intrinsics& intrinsics, const std::string& path) {
   RELIT_REQUIRE(image.width() == intrinsics.width && image.height() == intrinsics.height, path, " is ",
                 image.width(), "x", image.height(), ", truth.json's eval intrinsics say ", intrinsics.width, "x",
@@ -283,6 +296,17 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
                  "noise level; set eval.samples_per_pixel: {} to match)",
                  settings.samples_per_pixel, training_spp, training_spp);
   }
+  // The white level: 1 for SDR video (sRGB / gamma 2.2, what relit-synth
+  // writes); HDR captures keep highlights above 1, so 1 would be wrong there.
+  const std::string capture_transfer = CaptureTransfer(root);
+  if ((capture_transfer == "hlg" || capture_transfer == "pq") && options.clip_radiance == 1.0) {
+    spdlog::warn("eval: the capture linearised {} video (1 = reference white, highlights above it), but "
+                 "eval.clip_radiance is 1: set it to the video's peak in linear units, or 0 for no clip",
+                 capture_transfer);
+  }
+  if (options.clip_radiance > 0) {
+    spdlog::info("eval: render and truth clipped to [0, {}] per channel (eval.clip_radiance)", options.clip_radiance);
+  }
   const size_t view_count =
       options.max_views > 0 ? std::min<size_t>(options.max_views, truth.views.size()) : truth.views.size();
 
@@ -303,6 +327,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
       RELIT_REQUIRE(reference.channels() >= 3, gt_path, " has ", reference.channels(), " channels, expected RGB");
       RequireSize(reference, truth.intrinsics, gt_path);
       reference = Scaled(reference.SelectChannels(std::vector<int>{0, 1, 2}), truth.exposure);
+      ClipRadiance(&reference, options.clip_radiance);
       settings.seed = options.seed * 1000003 + v * 1000 + l;
       Image cues;
       {
@@ -318,6 +343,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
           predicted = method == "cues_only" ? baseline->Predict(cues)
                                             : renderers.at(method)->RenderCues(cues, camera.Center());
         }
+        ClipRadiance(&predicted, options.clip_radiance);
         EvalImageResult r;
         r.view = view.name;
         r.light = light.name;
@@ -359,6 +385,8 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
         {"factor", unit_factor},
         {"exposure", truth.exposure},
         {"note", "GT light strength S is rendered as S * factor; expected capture value = exposure * GT radiance"}}},
+      {"clip_radiance", options.clip_radiance},
+      {"capture_transfer", capture_transfer.empty() ? json(nullptr) : json(capture_transfer)},
       {"cues", {{"samples_per_pixel", settings.samples_per_pixel},
                 {"training_samples_per_pixel", training_spp},
                 {"max_depth", settings.max_depth}}},

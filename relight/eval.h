@@ -10,8 +10,9 @@
 //                      augmented (before vs after augmentation)
 //   cues_only          the per-texel cue regression (cues_baseline.h) fitted
 //                      on the plan's training frames
-// Metrics (metrics.h: MAE, PSNR, alpha MAE on the GT foreground, linear) plus
-// SSIM, per image, per light type and overall, go to OUT/eval.json (schema
+// Render and truth are clipped at the capture's white level
+// (eval.clip_radiance), then scored: metrics.h (MAE, PSNR, alpha MAE on the
+// GT foreground, linear) plus SSIM, per image, per light type and overall, go to OUT/eval.json (schema
 // relit.eval/1) and OUT/eval.md; OUT/images/ holds the renders, |error| x 5
 // maps and the ground truth as PNGs; OUT/run.json the run record.
 //
@@ -53,6 +54,12 @@ struct EvalOptions {
   int baseline_resolution_px = 128; // cues_only texel grid
   double baseline_ridge = 4.0;      // cues_only pull towards the global fit (pixels' worth)
   double error_map_scale = 5.0;     // error PNGs show |pred - GT| x this
+  // The capture's linear white level: render and truth are clipped per RGB
+  // channel to [0, clip_radiance] before scoring, since an 8-bit video holds
+  // nothing brighter (relit-synth: value = clamp(exposure x radiance);
+  // relit-capture linearises sRGB / gamma 2.2 video to 1 = white).
+  // capture.json records the transfer, not this level. 0 = no clip.
+  double clip_radiance = 1.0;
   bool write_images = true;         // PNGs of renders, error maps and GT
 
   void Read(OptionsReader& reader);

@@ -178,7 +178,8 @@ void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResu
   }
   header["light_types"] = types;
   header["metrics"] =
-      "linear radiance on the GT foreground (alpha >= 0.5), prediction (premultiplied) against GT x alpha: MAE, "
+      "linear radiance on the GT foreground (alpha >= 0.5), both clipped per RGB channel to [0, clip_radiance] (the "
+      "capture's linear white level; 0 = no clip), prediction (premultiplied) against GT x alpha: MAE, "
       "PSNR (peak 1), alpha MAE over the whole image (relight/metrics.h); SSIM per RGB channel, averaged, on the "
       "foreground's bounding box, linear values, L = 1 (Gaussian 11x11, sigma 1.5). Per light type: MAE/MSE/alpha "
       "pooled over foreground pixels, PSNR from the pooled MSE, SSIM the mean over images.";
@@ -188,9 +189,13 @@ void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResu
 
   // eval.md: method x light type, "PSNR / MAE / SSIM", plus alpha MAE.
   std::string md = "# Evaluation against ground truth\n\n";
+  const double clip = header.value("clip_radiance", 0.0);
   md += fmt::format("Truth: `{}`; {} views x {} lights. Cells: PSNR (dB) / MAE / SSIM, linear, on the GT "
-                    "foreground (see eval.json \"metrics\").\n\n",
-                    header.value("truth", std::string()), header.value("views", 0), header.value("lights", 0));
+                    "foreground (see eval.json \"metrics\"), {}.\n\n",
+                    header.value("truth", std::string()), header.value("views", 0), header.value("lights", 0),
+                    clip > 0 ? fmt::format("render and truth clipped at {:g} (eval.clip_radiance, the capture's "
+                                           "linear white level)", clip)
+                             : std::string("not clipped (eval.clip_radiance 0)"));
   if (header.contains("model_variant")) {
     md += fmt::format("Model input: `{}` ({}).\n\n", header.value("model_variant", std::string()),
                       header["model_input"].dump());
@@ -200,7 +205,7 @@ void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResu
       md += "Skipped `" + method + "`: " + reason.get<std::string>() + ".\n\n";
     }
   }
-  md += "| method |";
+  md += clip > 0 ? fmt::format("| method (clip {:g}) |", clip) : std::string("| method (no clip) |");
   for (const std::string& t : types) md += " " + t + " |";
   md += " all | alpha MAE |\n|---|";
   for (size_t i = 0; i < types.size() + 2; ++i) md += "---|";

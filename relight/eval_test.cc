@@ -4,11 +4,13 @@
 // views and lights, at the workspace's 160 x 120) and rendered with the
 // synth scene (board and table included) by the path tracer. Plus the
 // errors: missing eval image, truth without "eval", untrained workspace.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <utility>
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -167,8 +169,37 @@ TEST_F(EvalTest, ScoresModelAndCuesOnlyPerLightTypeAndWritesImages) {
     std::ifstream in(out / "eval.md");
     return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   }();
-  EXPECT_NE(md.find("| method | point | directional | environment | all | alpha MAE |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| method (clip 1) | point | directional | environment | all | alpha MAE |"), std::string::npos)
+      << md;
   EXPECT_NE(md.find("| cues_only |"), std::string::npos);
+  EXPECT_EQ(eval["clip_radiance"].get<double>(), 1.0);  // the default: SDR white
+}
+
+// eval.clip_radiance reaches both sides: clipped at 0.02 (below most of the
+// object's radiance), render and truth both lie in [0, 0.02], so no pixel can
+// be off by more; unclipped, the same cue regression is off by ~0.08.
+TEST_F(EvalTest, ClipRadianceClipsRenderAndTruth) {
+  const auto cues_only_mae = [&](const std::string& clip) {
+    const std::string config = dir_ + "/clip_" + clip + ".yaml";
+    std::ofstream(config) << "eval: {samples_per_pixel: 4, methods: [cues_only], write_images: false, clip_radiance: "
+                          << clip << "}\n";
+    const std::string out = dir_ + "/eval_clip_" + clip;
+    EXPECT_EQ(RunCli({"relit-relight", "eval", "--workspace", dir_ + "/ws", "--config", config, "--truth", truth_,
+                      "--out", out, "--log-level", "warn"}),
+              0);
+    const json eval = ReadJsonFile(out + "/eval.json", "eval", 1);
+    EXPECT_EQ(eval["clip_radiance"].get<double>(), std::stod(clip));
+    double max_mae = 0;
+    for (const json& image : eval["images"]) max_mae = std::max(max_mae, image["mae"].get<double>());
+    return std::make_pair(Row(eval, "cues_only", "all")["mae"].get<double>(), max_mae);
+  };
+  const auto [clipped_mae, clipped_max] = cues_only_mae("0.02");
+  const auto [unclipped_mae, unclipped_max] = cues_only_mae("0");
+  std::printf("cues_only MAE: clipped at 0.02 %.4f (max per image %.4f), unclipped %.4f\n", clipped_mae, clipped_max,
+              unclipped_mae);
+  EXPECT_LE(clipped_max, 0.02);
+  EXPECT_GT(unclipped_mae, 0.05);
+  EXPECT_LT(clipped_mae, 0.3 * unclipped_mae);
 }
 
 TEST(EvalErrors, MissingEvalImageIsNamed) {
@@ -223,6 +254,46 @@ TEST(EvalOptionsTest, UnknownKeysAndMethodsAreErrors) {
   EvalOptions bad;
   bad.methods = {"model", "nerf"};
   EXPECT_THROW(bad.Check(), Error);
+  RelightOptions negative_clip;
+  OptionsReader clip = OptionsReader::FromString("eval: {clip_radiance: -1}\n");
+  EXPECT_THROW(negative_clip.Read(clip), Error);
+}
+
+// A highlight the capture saturated: truth 100 (a mirror's reflection of a
+// lamp), the render at the white level 1 there and exact elsewhere. Only
+// with both clipped at the white level is the render perfect; unclipped, the
+// one highlight pixel dominates the error.
+TEST(EvalClipTest, SaturatedHighlightScoresPerfectOnlyWithClip) {
+  Image reference(32, 24, 3), matte(32, 24, 1), predicted(32, 24, 4);
+  for (int y = 0; y < 24; ++y) {
+    for (int x = 0; x < 32; ++x) {
+      matte.at(x, y, 0) = 1.0f;
+      for (int c = 0; c < 3; ++c) reference.at(x, y, c) = predicted.at(x, y, c) = 0.1f + 0.02f * ((x + y + c) % 7);
+      predicted.at(x, y, 3) = 1.0f;
+    }
+  }
+  for (int c = 0; c < 3; ++c) {
+    reference.at(10, 12, c) = 100.0f;
+    predicted.at(10, 12, c) = 1.0f;
+  }
+  const ImageMetrics raw = CompareToReference(predicted, reference, matte);
+  EXPECT_NEAR(raw.mse, 99.0 * 99.0 / (32 * 24), 1e-3);
+  EXPECT_LT(raw.psnr_db, -10);
+  EXPECT_LT(ForegroundSsim(predicted, reference, matte), 0.9);
+  ClipRadiance(&reference, 1.0);
+  ClipRadiance(&predicted, 1.0);
+  const ImageMetrics clipped = CompareToReference(predicted, reference, matte);
+  EXPECT_EQ(clipped.mse, 0.0);
+  EXPECT_TRUE(std::isinf(clipped.psnr_db));
+  EXPECT_NEAR(ForegroundSsim(predicted, reference, matte), 1.0, 1e-5);
+  EXPECT_EQ(predicted.at(10, 12, 3), 1.0f);  // alpha is not radiance: untouched
+  // 0 = no clip; negative radiance (a network's undershoot) clips to 0.
+  Image copy = reference;
+  copy.at(0, 0, 0) = -0.5f;
+  ClipRadiance(&copy, 0.0);
+  EXPECT_EQ(copy.at(0, 0, 0), -0.5f);
+  ClipRadiance(&copy, 1.0);
+  EXPECT_EQ(copy.at(0, 0, 0), 0.0f);
 }
 
 // SSIM: 1 for identical images, lower with noise, NaN without foreground;

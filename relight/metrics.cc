@@ -1,5 +1,6 @@
 #include "relight/metrics.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -42,6 +43,18 @@ ImageMetrics CompareToReference(const Image& predicted, const Image& reference_r
   }
   m.psnr_db = PsnrFromMse(m.mse);
   return m;
+}
+
+void ClipRadiance(Image* image, double white_level) {
+  if (white_level <= 0) return;
+  RELIT_REQUIRE(image->channels() >= 3, "ClipRadiance: need RGB, got ", image->channels(), " channels");
+  const float level = static_cast<float>(white_level);
+  for (int y = 0; y < image->height(); ++y) {
+    for (int x = 0; x < image->width(); ++x) {
+      float* p = image->pixel(x, y);
+      for (int c = 0; c < 3; ++c) p[c] = std::clamp(p[c], 0.0f, level);
+    }
+  }
 }
 
 ImageMetrics PoolMetrics(const std::vector<ImageMetrics>& metrics) {

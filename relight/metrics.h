@@ -7,6 +7,8 @@
 //   PSNR  10 log10(peak^2 / MSE), peak = 1 (linear 1.0 = the captures' SDR
 //         white), same pixels
 //   alpha MAE: mean |alpha - matte| over the whole image
+// A capture cannot hold radiance above its white level, so eval clips both
+// sides there first (ClipRadiance, eval.clip_radiance).
 #pragma once
 
 #include "core/image.h"
@@ -30,5 +32,10 @@ ImageMetrics CompareToReference(const Image& predicted, const Image& reference_r
 ImageMetrics PoolMetrics(const std::vector<ImageMetrics>& metrics);
 
 double PsnrFromMse(double mse);
+
+// Clamps the RGB channels (the first 3; alpha and others untouched) to
+// [0, white_level]: what an 8-bit capture can hold once linearised (its
+// linear white level, 1 for SDR sRGB video). white_level <= 0: unchanged.
+void ClipRadiance(Image* image, double white_level);
 
 }  // namespace relit::relight
