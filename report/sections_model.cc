@@ -333,9 +333,12 @@ std::string EvalTables(ReportContext& context, const fs::path& dir, const json& 
     }
     rows.push_back(cells);
   }
+  const double clip = eval.value("clip_radiance", 0.0);
   html += Paragraph("Cells: PSNR (dB) / MAE / SSIM, linear radiance on the ground-truth foreground, " +
                     std::to_string(eval.value("views", 0)) + " held-out views x " +
-                    std::to_string(eval.value("lights", 0)) + " lights.");
+                    std::to_string(eval.value("lights", 0)) + " lights; " +
+                    (clip > 0 ? "render and truth clipped at " + Fixed(clip, 3) + " (the capture's white level)"
+                              : std::string("not clipped")) + ".");
   html += Table(header, rows);
   if (eval.contains("light_unit")) {
     html += Paragraph("Light unit: ground-truth strengths x " + Fixed(eval["light_unit"].value("factor", 0.0), 4) +
