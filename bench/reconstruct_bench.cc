@@ -10,7 +10,11 @@
 //     al. 2017): MSE, SAD and seconds per megapixel against GT alpha. The GT
 //     alpha (truth/view_alpha, rendered through the true lens) is resampled
 //     with the workspace's own calibrated undistortion, exactly like the
-//     frames the mattes were computed on.
+//     frames the mattes were computed on. Without GT alpha the mattes are
+//     skipped (with a note).
+//  3. --breakdown: the Chamfer distance after each step of the dense proxy
+//     path; --write-truth-cameras: a copy of the workspace with true cameras
+//     (reconstruct_breakdown.h).
 // Reads only; results and how to reproduce them: docs/benchmarks.md,
 // section "Reconstruct".
 #include <algorithm>
@@ -29,6 +33,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "bench/bench_util.h"
+#include "bench/reconstruct_breakdown.h"
 #include "calib/undistort.h"
 #include "core/error.h"
 #include "core/image.h"
@@ -55,6 +60,8 @@ struct BenchOptions {
   double board_band_m = 0.003; // "on the board": all three vertices below this height
   double footprint_m = 0.01;   // ...and farther than this (XY) from the object's base
   bool infoflow = true;
+  bool breakdown = false;      // Chamfer after each proxy step (reconstruct_breakdown.h)
+  std::string truth_cameras;   // write a ground-truth-camera copy of the workspace here and stop
   std::string json_out;
 };
 
@@ -68,12 +75,16 @@ render::TriangleMesh Merge(const std::vector<render::TriangleMesh>& meshes) {
   return out;
 }
 
-json ProxyAccuracy(const BenchOptions& o, const json& truth, const render::TriangleMesh& proxy) {
+render::TriangleMesh GtMesh(const BenchOptions& o, const json& truth) {
   std::vector<render::TriangleMesh> objects;
   for (const json& object : truth.at("objects")) {
     objects.push_back(render::LoadMesh((fs::path(o.synth) / object.at("mesh").get<std::string>()).string()));
   }
-  const render::TriangleMesh gt = Merge(objects);
+  return Merge(objects);
+}
+
+json ProxyAccuracy(const BenchOptions& o, const json& truth, const render::TriangleMesh& proxy) {
+  const render::TriangleMesh gt = GtMesh(o, truth);
   const double diagonal = gt.Bounds().diagonal().norm();
   const auto start = std::chrono::steady_clock::now();
   const double chamfer = reconstruct::SymmetricChamferDistance(proxy, gt, o.chamfer_samples);
@@ -245,6 +256,17 @@ json MatteComparison(const BenchOptions& o, const json& truth, const render::Tri
   return out;
 }
 
+// The first GT alpha file truth.json names that is missing, or "" when all
+// exist. A synthetic output without them (e.g. a copy without
+// truth/view_alpha) skips the matte comparison.
+std::string MissingAlpha(const BenchOptions& o, const json& truth) {
+  for (const json& f : truth.at("videos").at("view").at("frames")) {
+    const fs::path alpha = fs::path(o.synth) / f.value("alpha", std::string());
+    if (!f.contains("alpha") || !fs::exists(alpha)) return alpha.string();
+  }
+  return "";
+}
+
 void PrintTable(const json& proxy, const json& mattes) {
   std::printf("\nproxy vs GT mesh: Chamfer %.2f mm = %.2f%% of the GT bbox diagonal (%.1f mm); %d faces, "
               "%d below the board, %d on the board outside the footprint; %d component(s), manifold %s, "
@@ -254,6 +276,10 @@ void PrintTable(const json& proxy, const json& mattes) {
               proxy["faces_below_board"].get<int>(), proxy["faces_on_board_outside_footprint"].get<int>(),
               proxy["components"].get<int>(), proxy["manifold"].get<bool>() ? "yes" : "no",
               proxy["watertight"].get<bool>() ? "yes" : "no", proxy["self_intersects"].get<bool>() ? "yes" : "no");
+  if (mattes.contains("skipped")) {
+    std::printf("\nmattes: skipped (%s)\n", mattes["skipped"].get<std::string>().c_str());
+    return;
+  }
   const json& relit = mattes["relit_closed_form"];
   std::printf("\nmattes vs GT alpha (%d of %d frames, %.3f MP, same trimaps; means per frame)\n",
               mattes["frames"].get<int>(), mattes["of_mattes"].get<int>(), mattes["image_megapixels"].get<double>());
@@ -281,6 +307,12 @@ int RunReconstructBench(int argc, char** argv) {
   app.add_option("--chamfer-samples", o.chamfer_samples, "surface samples per mesh for the Chamfer distance");
   app.add_option("--board-band-m", o.board_band_m, "a face lies on the board when all vertices are below this");
   app.add_flag("!--no-infoflow", o.infoflow, "skip OpenCV's infoFlow");
+  app.add_flag("--breakdown", o.breakdown,
+               "also measure the Chamfer distance after each proxy step (fused points, raw Poisson, cleanup, "
+               "remeshing, small-handle cut; dense proxies only)");
+  app.add_option("--write-truth-cameras", o.truth_cameras,
+                 "write a copy of the workspace with the true lens and poses of the phone V frames to this folder "
+                 "(calib/ only, capture/ linked) and stop; run relit-reconstruct on it");
   app.add_option("--json", o.json_out, "also write the results to this JSON file");
   try {
     app.parse(argc, argv);
@@ -288,6 +320,10 @@ int RunReconstructBench(int argc, char** argv) {
     return app.exit(e);
   }
   const fs::path ws(o.workspace);
+  if (!o.truth_cameras.empty()) {
+    WriteTruthCameraWorkspace(o.workspace, o.synth, o.truth_cameras);
+    return 0;
+  }
   const ProxyFile proxy = ReadProxyFile((ws / "reconstruct" / "proxy.json").string());
   const json truth = ReadJsonFile((fs::path(o.synth) / "truth.json").string(), "synth_truth", 1);
   const render::TriangleMesh mesh = render::LoadMesh((ws / proxy.mesh).string());
@@ -304,7 +340,14 @@ int RunReconstructBench(int argc, char** argv) {
                   {"proxy_source", report["proxy"]}};
   results["proxy_source"].erase("frames");
   results["proxy"] = ProxyAccuracy(o, truth, mesh);
-  results["mattes"] = MatteComparison(o, truth, mesh, proxy);
+  if (o.breakdown) results["proxy_breakdown"] = ProxyBreakdown(o.workspace, GtMesh(o, truth), o.chamfer_samples);
+  const std::string missing_alpha = MissingAlpha(o, truth);
+  if (missing_alpha.empty()) {
+    results["mattes"] = MatteComparison(o, truth, mesh, proxy);
+  } else {
+    results["mattes"] = {{"skipped", "no GT alpha " + missing_alpha +
+                                         ": --synth must be the relit-synth output with truth/view_alpha"}};
+  }
   PrintTable(results["proxy"], results["mattes"]);
   if (!o.json_out.empty()) WriteJsonFile(o.json_out, "bench_reconstruct", 1, results);
   return 0;

@@ -13,6 +13,7 @@
 #include <CGAL/AABB_tree.h>
 #include <CGAL/AABB_triangle_primitive.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Orthogonal_k_neighbor_search.h>
 #include <CGAL/Polygon_mesh_processing/border.h>
 #include <CGAL/Polygon_mesh_processing/connected_components.h>
 #include <CGAL/Polygon_mesh_processing/manifoldness.h>
@@ -28,6 +29,7 @@
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Count_stop_predicate.h>
 #include <CGAL/Surface_mesh_simplification/edge_collapse.h>
+#include <CGAL/Search_traits_3.h>
 #include <spdlog/spdlog.h>
 
 #include "core/error.h"
@@ -281,45 +283,90 @@ MeshStats AnalyseMesh(const render::TriangleMesh& input) {
   return stats;
 }
 
-namespace {
-
-// Mean distance from random points on `from` to the surface `to`.
-double MeanDistance(const render::TriangleMesh& from, const render::TriangleMesh& to, int samples,
-                    uint64_t seed) {
-  using Triangle = Kernel::Triangle_3;
-  using Iterator = std::vector<Triangle>::const_iterator;
-  using Tree = CGAL::AABB_tree<CGAL::AABB_traits<Kernel, CGAL::AABB_triangle_primitive<Kernel, Iterator>>>;
-  auto point = [](const Eigen::Vector3f& p) { return Point(p.x(), p.y(), p.z()); };
-  std::vector<Triangle> triangles;
-  for (const Eigen::Vector3i& t : to.triangles) {
-    triangles.emplace_back(point(to.positions[t[0]]), point(to.positions[t[1]]), point(to.positions[t[2]]));
-  }
-  Tree tree(triangles.cbegin(), triangles.cend());
-  tree.accelerate_distance_queries();
+std::vector<Eigen::Vector3d> SampleSurface(const render::TriangleMesh& mesh, int samples, uint64_t seed) {
+  RELIT_REQUIRE(!mesh.triangles.empty(), "surface samples of an empty mesh");
   std::vector<double> cumulative;
   double total = 0;
-  for (const Eigen::Vector3i& t : from.triangles) {
-    total += 0.5 * (from.positions[t[1]] - from.positions[t[0]])
-                       .cross(from.positions[t[2]] - from.positions[t[0]]).cast<double>().norm();
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    total += 0.5 * (mesh.positions[t[1]] - mesh.positions[t[0]])
+                       .cross(mesh.positions[t[2]] - mesh.positions[t[0]]).cast<double>().norm();
     cumulative.push_back(total);
   }
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
-  double sum = 0;
+  std::vector<Eigen::Vector3d> out;
+  out.reserve(samples);
   for (int i = 0; i < samples; ++i) {
     const auto it = std::lower_bound(cumulative.begin(), cumulative.end(), uniform(rng) * total);
-    const Eigen::Vector3i& t = from.triangles[std::min<std::size_t>(it - cumulative.begin(), from.triangles.size() - 1)];
+    const Eigen::Vector3i& t = mesh.triangles[std::min<std::size_t>(it - cumulative.begin(), mesh.triangles.size() - 1)];
     double u = uniform(rng), v = uniform(rng);
     if (u + v > 1) {
       u = 1 - u;
       v = 1 - v;
     }
-    const Eigen::Vector3d p = from.positions[t[0]].cast<double>() +
-                              u * (from.positions[t[1]] - from.positions[t[0]]).cast<double>() +
-                              v * (from.positions[t[2]] - from.positions[t[0]]).cast<double>();
-    sum += std::sqrt(tree.squared_distance(Point(p.x(), p.y(), p.z())));
+    out.push_back(mesh.positions[t[0]].cast<double>() +
+                  u * (mesh.positions[t[1]] - mesh.positions[t[0]]).cast<double>() +
+                  v * (mesh.positions[t[2]] - mesh.positions[t[0]]).cast<double>());
   }
-  return sum / samples;
+  return out;
+}
+
+std::vector<double> DistancesToSurface(const std::vector<Eigen::Vector3d>& points, const render::TriangleMesh& surface,
+                                       std::vector<double>* signed_distances) {
+  using Triangle = Kernel::Triangle_3;
+  using Iterator = std::vector<Triangle>::const_iterator;
+  using Tree = CGAL::AABB_tree<CGAL::AABB_traits<Kernel, CGAL::AABB_triangle_primitive<Kernel, Iterator>>>;
+  RELIT_REQUIRE(!surface.triangles.empty(), "distances to an empty mesh");
+  auto point = [](const Eigen::Vector3f& p) { return Point(p.x(), p.y(), p.z()); };
+  std::vector<Triangle> triangles;
+  for (const Eigen::Vector3i& t : surface.triangles) {
+    triangles.emplace_back(point(surface.positions[t[0]]), point(surface.positions[t[1]]),
+                           point(surface.positions[t[2]]));
+  }
+  Tree tree(triangles.cbegin(), triangles.cend());
+  tree.accelerate_distance_queries();
+  std::vector<double> out;
+  out.reserve(points.size());
+  if (signed_distances) signed_distances->clear();
+  for (const Eigen::Vector3d& p : points) {
+    const Point q(p.x(), p.y(), p.z());
+    if (!signed_distances) {
+      out.push_back(std::sqrt(tree.squared_distance(q)));
+      continue;
+    }
+    const auto [closest, triangle] = tree.closest_point_and_primitive(q);
+    const double distance = std::sqrt(CGAL::squared_distance(q, closest));
+    out.push_back(distance);
+    const Kernel::Vector_3 normal = CGAL::normal(triangle->vertex(0), triangle->vertex(1), triangle->vertex(2));
+    signed_distances->push_back((q - closest) * normal >= 0 ? distance : -distance);
+  }
+  return out;
+}
+
+std::vector<double> DistancesToPoints(const std::vector<Eigen::Vector3d>& queries,
+                                      const std::vector<Eigen::Vector3d>& points) {
+  using Traits = CGAL::Search_traits_3<Kernel>;
+  using Search = CGAL::Orthogonal_k_neighbor_search<Traits>;
+  RELIT_REQUIRE(!points.empty(), "distances to an empty point set");
+  std::vector<Point> cgal_points;
+  cgal_points.reserve(points.size());
+  for (const Eigen::Vector3d& p : points) cgal_points.emplace_back(p.x(), p.y(), p.z());
+  const Search::Tree tree(cgal_points.begin(), cgal_points.end());
+  std::vector<double> out;
+  out.reserve(queries.size());
+  for (const Eigen::Vector3d& q : queries) {
+    const Search search(tree, Point(q.x(), q.y(), q.z()), 1);
+    out.push_back(std::sqrt(search.begin()->second));
+  }
+  return out;
+}
+
+namespace {
+
+double Mean(const std::vector<double>& values) {
+  double sum = 0;
+  for (double v : values) sum += v;
+  return values.empty() ? 0 : sum / values.size();
 }
 
 }  // namespace
@@ -327,7 +374,8 @@ double MeanDistance(const render::TriangleMesh& from, const render::TriangleMesh
 double SymmetricChamferDistance(const render::TriangleMesh& a, const render::TriangleMesh& b, int samples,
                                 uint64_t seed) {
   RELIT_REQUIRE(!a.triangles.empty() && !b.triangles.empty(), "Chamfer distance of an empty mesh");
-  return 0.5 * (MeanDistance(a, b, samples, seed) + MeanDistance(b, a, samples, seed + 1));
+  return 0.5 * (Mean(DistancesToSurface(SampleSurface(a, samples, seed), b)) +
+                Mean(DistancesToSurface(SampleSurface(b, samples, seed + 1), a)));
 }
 
 }  // namespace relit::reconstruct

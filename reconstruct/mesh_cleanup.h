@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
@@ -69,5 +70,17 @@ MeshStats AnalyseMesh(const render::TriangleMesh& mesh);
 // (exact point-triangle distances, CGAL AABB tree), averaged over both ways.
 double SymmetricChamferDistance(const render::TriangleMesh& a, const render::TriangleMesh& b,
                                 int samples = 20000, uint64_t seed = 1);
+
+// The parts of the Chamfer distance, for benchmarks that compare point
+// clouds too: area-uniform random points on a mesh; the distance from each
+// point to a surface (exact point-triangle, CGAL AABB tree) or to the
+// nearest of a point set (CGAL kd-tree).
+std::vector<Eigen::Vector3d> SampleSurface(const render::TriangleMesh& mesh, int samples, uint64_t seed);
+// With `signed_distances`, also the distance signed by the closest
+// triangle's normal (> 0 in front of it: outside an outward surface).
+std::vector<double> DistancesToSurface(const std::vector<Eigen::Vector3d>& points, const render::TriangleMesh& surface,
+                                       std::vector<double>* signed_distances = nullptr);
+std::vector<double> DistancesToPoints(const std::vector<Eigen::Vector3d>& queries,
+                                      const std::vector<Eigen::Vector3d>& points);
 
 }  // namespace relit::reconstruct

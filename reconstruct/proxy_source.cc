@@ -13,6 +13,7 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "core/progress.h"
+#include "reconstruct/depth_cache.h"
 #include "reconstruct/depth_fusion.h"
 #include "reconstruct/point_surface.h"
 #include "reconstruct/stereo_depth.h"
@@ -81,17 +82,32 @@ DensePoints DenseDepthPoints(const fs::path& workspace, const CamerasFile& camer
     spdlog::warn("{} frames have no stereo neighbour within {}-{} deg: {}", no_neighbour.size(),
                  options.min_baseline_deg, options.max_baseline_deg, FrameList(no_neighbour));
   }
+  const DepthMapCache cache(workspace / "reconstruct_cache" / "depth_maps");
+  std::atomic<int> cached{0};
   {
     auto timer = record->Time("proxy_depth_maps");
     Progress progress("depth maps", static_cast<int64_t>(n));
     tbb::parallel_for(size_t(0), n, [&](size_t i) {
-      std::vector<const DepthView*> others;
-      for (int j : neighbours[i]) others.push_back(&views[j]);
-      depths[i] = others.empty() ? cv::Mat(views[i].gray.size(), CV_32F, cv::Scalar(0))
-                                 : ViewDepthMap(views[i], others, box, options);
+      std::vector<cv::Mat> pairs;
+      for (int j : neighbours[i]) {
+        const fs::path entry = cache.Entry(views[i], views[j], workspace / frames[i]->image_8bit,
+                                           workspace / frames[j]->image_8bit, box, options);
+        cv::Mat pair = cache.Load(entry);
+        if (!pair.empty()) {
+          ++cached;
+        } else {
+          pair = PairDepthMap(views[i], views[j], box, options);
+          cache.Store(entry, pair);
+        }
+        pairs.push_back(pair);
+      }
+      depths[i] = pairs.empty() ? cv::Mat(views[i].gray.size(), CV_32F, cv::Scalar(0))
+                                : CombinePairDepthMaps(pairs, options);
       progress.Advance();
     });
   }
+  (*report)["pair_depth_maps_from_cache"] = cached.load();
+  if (cached > 0) spdlog::info("dense: {} pair depth maps from the cache", cached.load());
   DensePoints result;
   std::vector<FrameFusionStats> stats;
   {

@@ -6,6 +6,8 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/error.h"
+
 namespace relit::reconstruct {
 namespace {
 
@@ -217,7 +219,12 @@ cv::Mat ViewDepthMap(const DepthView& ref, const std::vector<const DepthView*>& 
                      const ProxyOptions& options) {
   std::vector<cv::Mat> pairs;
   for (const DepthView* other : neighbours) pairs.push_back(PairDepthMap(ref, *other, box, options));
-  cv::Mat depth(ref.gray.rows, ref.gray.cols, CV_32F, cv::Scalar(0));
+  return CombinePairDepthMaps(pairs, options);
+}
+
+cv::Mat CombinePairDepthMaps(const std::vector<cv::Mat>& pairs, const ProxyOptions& options) {
+  RELIT_REQUIRE(!pairs.empty(), "CombinePairDepthMaps: no depth maps");
+  cv::Mat depth(pairs[0].rows, pairs[0].cols, CV_32F, cv::Scalar(0));
   std::vector<float> values;
   for (int v = 0; v < depth.rows; ++v) {
     for (int u = 0; u < depth.cols; ++u) {

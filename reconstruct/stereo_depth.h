@@ -46,4 +46,8 @@ cv::Mat PairDepthMap(const DepthView& ref, const DepthView& other, const SceneBo
 cv::Mat ViewDepthMap(const DepthView& ref, const std::vector<const DepthView*>& neighbours, const SceneBox& box,
                      const ProxyOptions& options);
 
+// The combination step of ViewDepthMap, on depth maps of the same view
+// from different pairs (PairDepthMap's outputs).
+cv::Mat CombinePairDepthMaps(const std::vector<cv::Mat>& pairs, const ProxyOptions& options);
+
 }  // namespace relit::reconstruct
