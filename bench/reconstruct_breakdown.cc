@@ -24,38 +24,6 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-// Positions of the binary little-endian PLY that WriteOrientedPly writes
-// (float x y z nx ny nz per vertex).
-std::vector<Eigen::Vector3d> ReadOrientedPlyPositions(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  RELIT_REQUIRE(in, "cannot open ", path);
-  std::string line;
-  std::size_t count = 0;
-  int floats = 0;
-  bool binary = false;
-  while (std::getline(in, line) && line != "end_header") {
-    std::istringstream words(line);
-    std::string word, kind;
-    words >> word;
-    if (word == "format") binary = line.find("binary_little_endian") != std::string::npos;
-    if (word == "element" && (words >> kind) && kind == "vertex") words >> count;
-    if (word == "property") {
-      words >> kind;
-      RELIT_REQUIRE(kind == "float", path, ": expected float properties, got ", line);
-      ++floats;
-    }
-  }
-  RELIT_REQUIRE(binary && floats >= 3 && count > 0, path, " is not a binary oriented point PLY");
-  std::vector<float> row(floats);
-  std::vector<Eigen::Vector3d> points;
-  points.reserve(count);
-  for (std::size_t i = 0; i < count && in.read(reinterpret_cast<char*>(row.data()), floats * sizeof(float)); ++i) {
-    points.emplace_back(row[0], row[1], row[2]);
-  }
-  RELIT_REQUIRE(points.size() == count, path, " is truncated");
-  return points;
-}
-
 double Mean(const std::vector<double>& v) {
   double sum = 0;
   for (double x : v) sum += x;
@@ -182,7 +150,10 @@ json ProxyBreakdown(const std::string& workspace, const render::TriangleMesh& gt
       reconstruct::CropFromCameras(cameras, reconstruct::GeometryFrames(cameras, &source), cleanup);
 
   const auto start = std::chrono::steady_clock::now();
-  const std::vector<Eigen::Vector3d> fused = ReadOrientedPlyPositions((points_dir / "fused_points.ply").string());
+  std::vector<Eigen::Vector3d> fused;
+  for (const reconstruct::OrientedPoint& p : reconstruct::ReadOrientedPly((points_dir / "fused_points.ply").string())) {
+    fused.push_back(p.position_m);
+  }
   const json stage_report = ReadJsonFile((ws / "reconstruct" / "reconstruct_report.json").string(), "reconstruct_report", 1);
   // Support radius: 3x the fused point spacing (gaps in the points are holes).
   const double spacing = stage_report.at("proxy").value("point_spacing_m", 0.0015);

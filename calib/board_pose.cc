@@ -41,13 +41,16 @@ BoardCalibration CalibrateFromBoard(const std::vector<const BoardObservation*>& 
   } else {
     for (int i = 0; i < max_frames; ++i) chosen.push_back(usable[i * usable.size() / max_frames]);
   }
-  std::vector<std::vector<cv::Point2f>> corners;
-  std::vector<std::vector<int>> ids;
+  // Each round judges every detected corner of the frames still in use
+  // against the latest fit, so a corner dropped while outliers pulled the
+  // first fit comes back.
+  std::vector<std::vector<cv::Point2f>> detected;
+  std::vector<std::vector<int>> detected_ids;
   for (const BoardObservation* o : chosen) {
     std::vector<cv::Point2f> c;
     for (const Eigen::Vector2d& p : o->corners_px) c.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
-    corners.push_back(c);
-    ids.push_back(o->corner_ids);
+    detected.push_back(c);
+    detected_ids.push_back(o->corner_ids);
   }
   const auto board = MakeCharucoBoard(spec);
   int flags = cv::CALIB_USE_INTRINSIC_GUESS;
@@ -57,11 +60,8 @@ BoardCalibration CalibrateFromBoard(const std::vector<const BoardObservation*>& 
   BoardCalibration result;
   cv::Mat k, dist;
   std::vector<cv::Mat> rvecs, tvecs;
-  // Each round judges every detected corner of the frames still in use
-  // against the latest fit, so a corner dropped while outliers pulled the
-  // first fit comes back.
-  const std::vector<std::vector<cv::Point2f>> detected = corners;
-  const std::vector<std::vector<int>> detected_ids = ids;
+  std::vector<std::vector<cv::Point2f>> corners = detected;  // the frames and corners in use
+  std::vector<std::vector<int>> ids = detected_ids;
   std::vector<size_t> frame_of(detected.size());
   for (size_t f = 0; f < frame_of.size(); ++f) frame_of[f] = f;
   for (int round = 0; round < 5; ++round) {
@@ -114,12 +114,10 @@ BoardCalibration CalibrateFromBoard(const std::vector<const BoardObservation*>& 
     ids = kept_ids;
     frame_of = kept_frames;
   }
-  result.corners_rejected = 0;
-  for (const auto& frame_ids : detected_ids) result.corners_rejected += static_cast<int>(frame_ids.size());
   for (const auto& frame_ids : ids) result.corners_used += static_cast<int>(frame_ids.size());
+  for (const auto& frame_ids : detected_ids) result.corners_rejected += static_cast<int>(frame_ids.size());
   result.corners_rejected -= result.corners_used;
   result.frames_used = static_cast<int>(corners.size());
-  for (const auto& frame_ids : ids) result.corners_used += static_cast<int>(frame_ids.size());
   // Degenerate motion: a lens needs board views from different directions.
   std::vector<Eigen::Vector3d> normals;
   for (const cv::Mat& r : rvecs) normals.push_back(RotationFromRvec(r).col(2));

@@ -251,6 +251,9 @@ TEST(BoardLensTest, MisplacedCornersAreDroppedAndTheLensRecovered) {
   std::cout << "f " << c.intrinsics.fx << " vs " << truth.fx << ", c " << c.intrinsics.cx << ", " << c.intrinsics.cy
             << " vs " << truth.cx << ", " << truth.cy << ", rms " << c.rms_px << ", rejected " << c.corners_rejected << "\n";
   EXPECT_EQ(c.corners_rejected, misplaced);
+  int detected = 0;
+  for (const BoardObservation& o : frames) detected += static_cast<int>(o.corner_ids.size());
+  EXPECT_EQ(c.corners_used + c.corners_rejected, detected);
   EXPECT_LT(c.rms_px, 0.15);
   EXPECT_NEAR(c.intrinsics.fx / truth.fx, 1.0, 0.003);
   EXPECT_NEAR(c.intrinsics.cx, truth.cx, 0.5);

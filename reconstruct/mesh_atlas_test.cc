@@ -6,10 +6,12 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "core/error.h"
 #include "core/render/mesh.h"
 #include "reconstruct/mesh_cleanup.h"
+#include "reconstruct/point_surface.h"
 #include "reconstruct/uv_atlas.h"
 #include "tools/synth/scene.h"
 
@@ -194,6 +196,27 @@ TEST(Cleanup, ChamferDetectsADifferentShape) {
   for (Eigen::Vector3f& p : shifted.positions) p.x() += 0.01f;
   EXPECT_NEAR(SymmetricChamferDistance(mesh, mesh, 2000), 0.0, 1e-6);
   EXPECT_GT(SymmetricChamferDistance(shifted, mesh, 2000), 0.003);
+}
+
+TEST(Points, OrientedPlyRoundTripsAndShortFilesAreErrors) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("relit_ply_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::vector<OrientedPoint> points;
+  for (int i = 0; i < 5; ++i) {
+    points.push_back({Eigen::Vector3d(0.01 * i, -0.02 * i, 0.5), Eigen::Vector3d(0, 0.6, 0.8)});
+  }
+  const std::string path = (dir / "points.ply").string();
+  WriteOrientedPly(path, points);
+  const std::vector<OrientedPoint> back = ReadOrientedPly(path);
+  ASSERT_EQ(back.size(), points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    EXPECT_LT((back[i].position_m - points[i].position_m).norm(), 1e-7);
+    EXPECT_LT((back[i].normal - points[i].normal).norm(), 1e-7);
+  }
+  std::filesystem::resize_file(path, std::filesystem::file_size(path) - 10);
+  EXPECT_THROW(ReadOrientedPly(path), Error);
+  EXPECT_THROW(ReadOrientedPly((dir / "missing.ply").string()), Error);
+  std::filesystem::remove_all(dir);
 }
 
 TEST(Cleanup, BadInputsAreClearErrors) {

@@ -121,6 +121,36 @@ void WriteOrientedPly(const std::string& path, const std::vector<OrientedPoint>&
   RELIT_REQUIRE(out.good(), "error writing ", path);
 }
 
+std::vector<OrientedPoint> ReadOrientedPly(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  RELIT_REQUIRE(in, "cannot open ", path);
+  std::string line;
+  std::size_t count = 0;
+  int floats = 0;
+  bool binary = false;
+  while (std::getline(in, line) && line != "end_header") {
+    std::istringstream words(line);
+    std::string word, kind;
+    words >> word;
+    if (word == "format") binary = line.find("binary_little_endian") != std::string::npos;
+    if (word == "element" && (words >> kind) && kind == "vertex") words >> count;
+    if (word == "property") {
+      words >> kind;
+      RELIT_REQUIRE(kind == "float", path, ": expected float properties, got ", line);
+      ++floats;
+    }
+  }
+  RELIT_REQUIRE(binary && floats == 6 && count > 0, path, " is not a binary oriented point PLY (x y z nx ny nz)");
+  std::array<float, 6> row;
+  std::vector<OrientedPoint> points;
+  points.reserve(count);
+  for (std::size_t i = 0; i < count && in.read(reinterpret_cast<char*>(row.data()), sizeof(row)); ++i) {
+    points.push_back({Eigen::Vector3d(row[0], row[1], row[2]), Eigen::Vector3d(row[3], row[4], row[5])});
+  }
+  RELIT_REQUIRE(points.size() == count, path, " is truncated: ", points.size(), " of ", count, " points");
+  return points;
+}
+
 render::TriangleMesh PoissonSurface(const std::string& points_ply, const std::string& mesh_ply,
                                     const std::string& log_path, const ProxyOptions& options) {
   std::error_code ignored;

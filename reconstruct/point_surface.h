@@ -33,6 +33,9 @@ std::vector<OrientedPoint> OrientedPointCloud(const std::vector<FusedPoint>& poi
 
 // Binary PLY with x y z nx ny nz (float), as poisson_mesher reads it.
 void WriteOrientedPly(const std::string& path, const std::vector<OrientedPoint>& points);
+// Reads what WriteOrientedPly writes (e.g. proxy_points/fused_points.ply).
+// Throws relit::Error naming the file for any other layout or a short file.
+std::vector<OrientedPoint> ReadOrientedPly(const std::string& path);
 
 // Screened Poisson surface of an oriented PLY via `colmap poisson_mesher`
 // (log in `log_path`). COLMAP may exit 0 without a mesh: a missing or empty

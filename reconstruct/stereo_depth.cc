@@ -215,13 +215,6 @@ cv::Mat PairDepthMap(const DepthView& ref, const DepthView& other, const SceneBo
   return depth;
 }
 
-cv::Mat ViewDepthMap(const DepthView& ref, const std::vector<const DepthView*>& neighbours, const SceneBox& box,
-                     const ProxyOptions& options) {
-  std::vector<cv::Mat> pairs;
-  for (const DepthView* other : neighbours) pairs.push_back(PairDepthMap(ref, *other, box, options));
-  return CombinePairDepthMaps(pairs, options);
-}
-
 cv::Mat CombinePairDepthMaps(const std::vector<cv::Mat>& pairs, const ProxyOptions& options) {
   RELIT_REQUIRE(!pairs.empty(), "CombinePairDepthMaps: no depth maps");
   cv::Mat depth(pairs[0].rows, pairs[0].cols, CV_32F, cv::Scalar(0));

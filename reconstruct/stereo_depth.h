@@ -40,14 +40,10 @@ std::vector<std::vector<int>> SelectStereoNeighbours(const std::vector<Camera>& 
 // pixel grid from `other`: rectification, SGBM both ways, left-right check.
 cv::Mat PairDepthMap(const DepthView& ref, const DepthView& other, const SceneBox& box, const ProxyOptions& options);
 
-// Depth of `ref` from all its neighbours: where several pairs give a depth
-// the agreeing ones (relative difference below options.depth_tolerance) are
+// One depth map of a view from its pairs' maps (PairDepthMap's outputs, the
+// same view with different neighbours): where several pairs give a depth the
+// agreeing ones (relative difference below options.depth_tolerance) are
 // averaged; a pixel whose pairs disagree is dropped.
-cv::Mat ViewDepthMap(const DepthView& ref, const std::vector<const DepthView*>& neighbours, const SceneBox& box,
-                     const ProxyOptions& options);
-
-// The combination step of ViewDepthMap, on depth maps of the same view
-// from different pairs (PairDepthMap's outputs).
 cv::Mat CombinePairDepthMaps(const std::vector<cv::Mat>& pairs, const ProxyOptions& options);
 
 }  // namespace relit::reconstruct

@@ -61,6 +61,14 @@ void WriteAudio(const SynthOptions& o, const CapturePlan& plan, const fs::path& 
   }
 }
 
+SensorParams Sensor(const SynthOptions& o) {
+  SensorParams sensor;
+  sensor.exposure = o.exposure;
+  sensor.full_well_e = o.full_well_e;
+  sensor.read_noise_e = o.read_noise_e;
+  return sensor;
+}
+
 render::RenderOptions FrameRenderOptions(int spp, int max_depth, uint64_t seed,
                                          const std::vector<int>& alpha_ids) {
   render::RenderOptions options;
@@ -84,10 +92,7 @@ void RenderVideo(const SynthOptions& o, const VideoPlan& video, int video_index,
   encode.display_rotation_deg = o.display_rotation_deg;
   encode.audio_wav = (root / ("truth/audio/" + video.name + ".wav")).string();
   VideoEncoder encoder((root / (video.name + ".mp4")).string(), encode);
-  SensorParams sensor;
-  sensor.exposure = o.exposure;
-  sensor.full_well_e = o.full_well_e;
-  sensor.read_noise_e = o.read_noise_e;
+  const SensorParams sensor = Sensor(o);
   const std::vector<int> alpha_ids = synth_scene.ForegroundIds();
   for (const FramePlan& frame : video.frames) {
     scene->ClearLights();
@@ -127,10 +132,7 @@ void RenderBoardClip(const SynthOptions& o, const VideoPlan& clip, int clip_inde
   }
   scene.Commit();
   scene.SetEnvironment(room);
-  SensorParams sensor;
-  sensor.exposure = o.exposure;
-  sensor.full_well_e = o.full_well_e;
-  sensor.read_noise_e = o.read_noise_e;
+  const SensorParams sensor = Sensor(o);
   const fs::path folder = root / BoardClipFolder(clip.phone);
   fs::create_directories(folder);
   for (const FramePlan& frame : clip.frames) {
