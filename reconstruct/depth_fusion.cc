@@ -1,5 +1,6 @@
 #include "reconstruct/depth_fusion.h"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 
@@ -15,18 +16,57 @@ bool InCrop(const Eigen::Vector3d& p, const CropRegion& crop, double min_height_
   return p.z() > min_height_m && (p.head<2>() - crop.centre_xy).norm() < crop.radius_m;
 }
 
+namespace {
+
+struct ViewPose {
+  Rigid3 world_from_cam;
+  Eigen::Vector3d centre;
+};
+
+std::vector<ViewPose> Poses(const std::vector<Camera>& cameras) {
+  std::vector<ViewPose> poses;
+  for (const Camera& camera : cameras) poses.push_back({camera.world_from_cam(), camera.Center()});
+  return poses;
+}
+
+// The other frames whose depth maps hold `point` (within
+// options.depth_tolerance); their 3D points are added to *sum. Stops
+// counting at `enough` (0 = count all).
+int AgreeingViews(const Eigen::Vector3d& point, size_t self, const std::vector<Camera>& cameras,
+                  const std::vector<ViewPose>& poses, const std::vector<cv::Mat>& depths,
+                  const ProxyOptions& options, int enough, Eigen::Vector3d* sum) {
+  int agreeing = 0;
+  for (size_t k = 0; k < cameras.size(); ++k) {
+    if (k == self) continue;
+    const Eigen::Vector3d in_k = cameras[k].cam_from_world() * point;
+    if (in_k.z() <= 0) continue;
+    const Eigen::Vector2d pixel = cameras[k].ProjectCameraPoint(in_k);
+    const int x = static_cast<int>(std::lround(pixel.x())), y = static_cast<int>(std::lround(pixel.y()));
+    if (x < 0 || y < 0 || x >= depths[k].cols || y >= depths[k].rows) continue;
+    const float zk = depths[k].at<float>(y, x);
+    if (zk <= 0 || std::abs(zk - in_k.z()) > options.depth_tolerance * in_k.z()) continue;
+    if (sum) {
+      const Eigen::Vector3d ray_k = cameras[k].PixelToCameraRay(Eigen::Vector2d(x, y));
+      *sum += poses[k].world_from_cam * (ray_k * (zk / ray_k.z()));
+    }
+    if (++agreeing == enough) break;
+  }
+  return agreeing;
+}
+
+}  // namespace
+
 std::vector<FusedPoint> FuseDepthMaps(const std::vector<Camera>& cameras, const std::vector<cv::Mat>& depths,
                                       const CropRegion& crop, const ProxyOptions& options,
                                       std::vector<FrameFusionStats>* stats,
                                       const std::function<void()>& on_frame_done) {
   const size_t n = cameras.size();
+  const std::vector<ViewPose> poses = Poses(cameras);
   stats->assign(n, FrameFusionStats{});
   std::vector<std::vector<FusedPoint>> per_frame(n);
   tbb::parallel_for(size_t(0), n, [&](size_t i) {
     const Camera& camera = cameras[i];
     const cv::Mat& depth = depths[i];
-    const Rigid3 world_from_cam = camera.world_from_cam();
-    const Eigen::Vector3d centre = camera.Center();
     FrameFusionStats& s = (*stats)[i];
     for (int v = 0; v < depth.rows; ++v) {
       for (int u = 0; u < depth.cols; ++u) {
@@ -34,30 +74,16 @@ std::vector<FusedPoint> FuseDepthMaps(const std::vector<Camera>& cameras, const 
         if (z <= 0) continue;
         ++s.depth_px;
         const Eigen::Vector3d ray = camera.PixelToCameraRay(Eigen::Vector2d(u, v));
-        const Eigen::Vector3d point = world_from_cam * (ray * (z / ray.z()));
+        const Eigen::Vector3d point = poses[i].world_from_cam * (ray * (z / ray.z()));
         if (!InCrop(point, crop, options.min_height_m)) continue;
         ++s.in_crop_px;
         Eigen::Vector3d sum = point;
-        int agreeing = 0;
-        for (size_t k = 0; k < n; ++k) {
-          if (k == i) continue;
-          Eigen::Vector2d pixel;
-          if (!cameras[k].Project(point, &pixel)) continue;
-          const int x = static_cast<int>(std::lround(pixel.x())), y = static_cast<int>(std::lround(pixel.y()));
-          if (x < 0 || y < 0 || x >= depths[k].cols || y >= depths[k].rows) continue;
-          const float zk = depths[k].at<float>(y, x);
-          if (zk <= 0) continue;
-          const double expected = (cameras[k].cam_from_world() * point).z();
-          if (std::abs(zk - expected) > options.depth_tolerance * expected) continue;
-          const Eigen::Vector3d ray_k = cameras[k].PixelToCameraRay(Eigen::Vector2d(x, y));
-          sum += cameras[k].world_from_cam() * (ray_k * (zk / ray_k.z()));
-          ++agreeing;
-        }
+        const int agreeing = AgreeingViews(point, i, cameras, poses, depths, options, 0, &sum);
         if (agreeing < options.min_consistent_views) continue;
         ++s.consistent_px;
         FusedPoint fused;
         fused.position_m = sum / (agreeing + 1);
-        fused.to_camera = (centre - fused.position_m).normalized();
+        fused.to_camera = (poses[i].centre - fused.position_m).normalized();
         per_frame[i].push_back(fused);
       }
     }
@@ -68,6 +94,30 @@ std::vector<FusedPoint> FuseDepthMaps(const std::vector<Camera>& cameras, const 
     points.insert(points.end(), frame_points.begin(), frame_points.end());
   }
   return points;
+}
+
+std::vector<cv::Mat> ConsistentDepthMaps(const std::vector<Camera>& cameras, const std::vector<cv::Mat>& depths,
+                                         const ProxyOptions& options, const std::function<void()>& on_frame_done) {
+  const std::vector<ViewPose> poses = Poses(cameras);
+  std::vector<cv::Mat> consistent(cameras.size());
+  const int enough = std::max(1, options.min_consistent_views);
+  tbb::parallel_for(size_t(0), cameras.size(), [&](size_t i) {
+    const cv::Mat& depth = depths[i];
+    consistent[i] = cv::Mat(depth.size(), CV_32F, cv::Scalar(0));
+    for (int v = 0; v < depth.rows; ++v) {
+      for (int u = 0; u < depth.cols; ++u) {
+        const float z = depth.at<float>(v, u);
+        if (z <= 0) continue;
+        const Eigen::Vector3d ray = cameras[i].PixelToCameraRay(Eigen::Vector2d(u, v));
+        const Eigen::Vector3d point = poses[i].world_from_cam * (ray * (z / ray.z()));
+        if (AgreeingViews(point, i, cameras, poses, depths, options, enough, nullptr) >= enough) {
+          consistent[i].at<float>(v, u) = z;
+        }
+      }
+    }
+    if (on_frame_done) on_frame_done();
+  });
+  return consistent;
 }
 
 }  // namespace relit::reconstruct

@@ -39,6 +39,14 @@ std::vector<FusedPoint> FuseDepthMaps(const std::vector<Camera>& cameras, const 
                                       std::vector<FrameFusionStats>* stats,
                                       const std::function<void()>& on_frame_done = {});
 
+// Each depth map keeping only the pixels that at least
+// options.min_consistent_views other frames agree with (the fusion's test,
+// over the whole frame: the table too). Stereo mismatches on dark or
+// textureless parts rarely agree, so these are the depths the proxy
+// refinement may trust to say "this ray is empty up to here".
+std::vector<cv::Mat> ConsistentDepthMaps(const std::vector<Camera>& cameras, const std::vector<cv::Mat>& depths,
+                                         const ProxyOptions& options, const std::function<void()>& on_frame_done = {});
+
 // True for a world point inside the crop cylinder and above min_height_m.
 bool InCrop(const Eigen::Vector3d& p, const CropRegion& crop, double min_height_m);
 

@@ -31,6 +31,7 @@ struct CleanupReport {
   int components_kept = 0;
   int holes_filled = 0;
   int handles_cut = 0;              // three-edge loops cut (CutSmallHandles)
+  int self_intersection_faces_replaced = 0;  // RemoveSelfIntersections
   int output_faces = 0;
   nlohmann::json ToJson() const;
 };
@@ -45,6 +46,20 @@ render::TriangleMesh CleanupMesh(const render::TriangleMesh& input, const Cleanu
 // at most small_part_fraction of the faces removes that part instead.
 // Returns the number of loops cut (mesh_handles.cc).
 int CutSmallHandles(render::TriangleMesh* mesh, double small_part_fraction);
+
+// Removes self-intersections of a closed manifold mesh. Each round first
+// fairs (PMP::fair) the vertices of the faces that intersect another (or are
+// degenerate), kept if fewer intersecting pairs are left; otherwise it
+// removes those faces plus one more ring of neighbours per such round, and
+// every piece the removal would cut off or pinch, and fills the holes with
+// faired patches (triangulate_refine_and_fair_hole). Repeats until CGAL
+// finds no intersection or max_rounds run out (then a warning with the
+// number of pairs left).
+// A round whose result is not closed and manifold, or has more components,
+// is undone. Returns the number of the input's faces replaced or reshaped
+// (0 leaves the mesh untouched); the result is outward (volume > 0), normals recomputed,
+// UVs dropped. Throws relit::Error when the input is not closed and manifold.
+int RemoveSelfIntersections(render::TriangleMesh* mesh, int max_rounds = 10);
 
 struct MeshStats {
   int faces = 0;

@@ -42,6 +42,7 @@ struct DensePoints {
   std::vector<FusedPoint> points;
   std::vector<std::string> frames_without_points;
   double pixel_footprint_m = 0;  // median over frames, at the crop centre
+  std::vector<cv::Mat> depths;   // per frame, for the refinement
 };
 
 // Depth maps of every frame, then multi-view consistency and fusion.
@@ -130,6 +131,7 @@ DensePoints DenseDepthPoints(const fs::path& workspace, const CamerasFile& camer
   result.pixel_footprint_m = footprints[n / 2];
   (*report)["frames"] = frame_reports;
   (*report)["fused_points"] = result.points.size();
+  result.depths = std::move(depths);
   spdlog::info("dense: {} consistent depth points from {} frames ({} without any)", result.points.size(), n,
                result.frames_without_points.size());
   return result;
@@ -210,7 +212,8 @@ CropRegion CropFromCameras(const CamerasFile& cameras, const std::vector<const C
 
 render::TriangleMesh BuildProxyFromImages(const fs::path& workspace, const CamerasFile& cameras,
                                           const CropRegion& crop, const ProxyOptions& options,
-                                          const fs::path& work_dir, RunRecord* record, nlohmann::json* report) {
+                                          const fs::path& work_dir, RunRecord* record, nlohmann::json* report,
+                                          DepthEvidence* evidence) {
   std::string source;
   const std::vector<const CalibratedFrame*> frames = Subsample(GeometryFrames(cameras, &source), options.max_frames);
   RELIT_REQUIRE(frames.size() >= 2, "reconstruct: the ", options.method, " proxy needs at least 2 frames with ",
@@ -285,6 +288,14 @@ render::TriangleMesh BuildProxyFromImages(const fs::path& workspace, const Camer
     mesh = AdvancingFrontSurface(positions, options);
     RELIT_REQUIRE(!mesh.triangles.empty(), "reconstruct: the advancing-front surface over ", positions.size(),
                   " points is empty; ", advice);
+  }
+  if (evidence && !dense.depths.empty()) {
+    *evidence = DepthEvidence{};
+    for (const CalibratedFrame* f : frames) evidence->names.push_back(f->name);
+    evidence->cameras = camera_list;
+    auto timer = record->Time("proxy_consistent_depth_maps");
+    Progress progress("consistent depths", static_cast<int64_t>(frames.size()));
+    evidence->depths = ConsistentDepthMaps(camera_list, dense.depths, options, [&] { progress.Advance(); });
   }
   (*report)["raw_faces"] = mesh.triangles.size();
   spdlog::info("proxy: {} surface with {} faces", method, mesh.triangles.size());

@@ -17,6 +17,7 @@
 #include "core/workspace.h"
 #include "reconstruct/mesh_cleanup.h"
 #include "reconstruct/reconstruct_options.h"
+#include "reconstruct/visibility_refine.h"
 
 namespace relit::reconstruct {
 
@@ -36,9 +37,11 @@ CropRegion CropFromCameras(const CamerasFile& cameras, const std::vector<const C
 // Intermediate files (fused_points.ply, poisson.ply, the COLMAP log) go to
 // `work_dir`. Timings go to `record`, figures to `report`. Throws
 // relit::Error when too few points survive, naming the frames that gave none.
+// With `evidence`, the depth maps (when the path computed any) are handed on
+// for RefineWithDepthMaps.
 render::TriangleMesh BuildProxyFromImages(const std::filesystem::path& workspace, const CamerasFile& cameras,
                                           const CropRegion& crop, const ProxyOptions& options,
                                           const std::filesystem::path& work_dir, RunRecord* record,
-                                          nlohmann::json* report);
+                                          nlohmann::json* report, DepthEvidence* evidence = nullptr);
 
 }  // namespace relit::reconstruct

@@ -77,6 +77,7 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
   spdlog::info("crop: centre ({:.3f}, {:.3f}) m, radius {:.3f} m, above z = {:.4f} m", crop.centre_xy.x(),
                crop.centre_xy.y(), crop.radius_m, options.cleanup.crop_margin_m);
   render::TriangleMesh input;
+  DepthEvidence evidence;
   if (options.proxy.method == "mesh") {
     record.AddInput("mesh", options.mesh);
     auto timer = record.Time("load_mesh");
@@ -85,7 +86,7 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
   } else {
     nlohmann::json proxy_report;
     input = BuildProxyFromImages(workspace, cameras, crop, options.proxy, root / "proxy_points", &record,
-                                 &proxy_report);
+                                 &proxy_report, &evidence);
     report["proxy"] = proxy_report;
     record.Set("proxy_method", proxy_report["method"]);
   }
@@ -95,6 +96,22 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
     auto timer = record.Time("cleanup");
     proxy = CleanupMesh(input, options.cleanup, crop, &cleanup_report);
   }
+  if (options.refine.enabled && options.refine.iterations > 0) {
+    if (evidence.empty()) {
+      spdlog::info("refine: skipped (the {} proxy has no depth maps to refine against)", options.proxy.method);
+      report["refine"] = {{"skipped", "no depth maps (proxy.method " + options.proxy.method + ")"}};
+    } else {
+      auto timer = record.Time("refine");
+      RefineReport refine_report;
+      proxy = RefineWithDepthMaps(proxy, evidence, options.refine, options.cleanup.crop_margin_m, &refine_report);
+      if (options.cleanup.remove_self_intersections) {  // moving vertices can fold the surface again
+        refine_report.self_intersection_faces_replaced =
+            RemoveSelfIntersections(&proxy, options.cleanup.self_intersection_rounds);
+      }
+      report["refine"] = refine_report.ToJson();
+    }
+  }
+  evidence = DepthEvidence{};  // free the depth maps before matting
   const MeshStats mesh_stats = AnalyseMesh(proxy);
   if (!mesh_stats.closed() || !mesh_stats.manifold()) {
     spdlog::warn("proxy: {} boundary edges, {} non-manifold edges, {} non-manifold vertices after cleanup",

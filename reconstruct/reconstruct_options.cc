@@ -88,6 +88,8 @@ void CleanupOptions::Read(OptionsReader& r) {
   r.Read("fair_holes", &fair_holes);
   r.Read("cut_small_handles", &cut_small_handles);
   r.ReadRange("cut_off_fraction", &cut_off_fraction, 0.0, 0.5);
+  r.Read("remove_self_intersections", &remove_self_intersections);
+  r.ReadRange("self_intersection_rounds", &self_intersection_rounds, 1, 100);
   r.Finish();
 }
 
@@ -100,6 +102,8 @@ void CleanupOptions::Check() const {
   RELIT_REQUIRE(target_faces >= 100, "cleanup.target_faces must be >= 100, got ", target_faces);
   RELIT_REQUIRE(remesh_iterations >= 0, "cleanup.remesh_iterations must be >= 0");
   RELIT_REQUIRE(cut_off_fraction >= 0 && cut_off_fraction <= 0.5, "cleanup.cut_off_fraction must be in [0, 0.5]");
+  RELIT_REQUIRE(self_intersection_rounds >= 1, "cleanup.self_intersection_rounds must be >= 1, got ",
+                self_intersection_rounds);
 }
 
 nlohmann::json CleanupOptions::ToJson() const {
@@ -112,7 +116,9 @@ nlohmann::json CleanupOptions::ToJson() const {
           {"remesh_iterations", remesh_iterations},
           {"fair_holes", fair_holes},
           {"cut_small_handles", cut_small_handles},
-          {"cut_off_fraction", cut_off_fraction}};
+          {"cut_off_fraction", cut_off_fraction},
+          {"remove_self_intersections", remove_self_intersections},
+          {"self_intersection_rounds", self_intersection_rounds}};
 }
 
 void AtlasOptions::Read(OptionsReader& r) {
@@ -200,6 +206,40 @@ nlohmann::json MattingOptions::ToJson() const {
           {"threads", threads}};
 }
 
+void RefineOptions::Read(OptionsReader& r) {
+  r.Read("enabled", &enabled);
+  r.ReadRange("iterations", &iterations, 0, 10000);
+  r.ReadRange("step_m", &step_m, 0.0, 1.0);
+  r.ReadRange("free_space_tolerance", &free_space_tolerance, 1e-5, 1.0);
+  r.ReadRange("min_free_space_views", &min_free_space_views, 1, 1000);
+  r.ReadRange("support_band", &support_band, 1e-5, 1.0);
+  r.ReadRange("min_facing_cosine", &min_facing_cosine, 0.0, 1.0);
+  r.ReadRange("data_weight", &data_weight, 0.0, 1.0);
+  r.ReadRange("smoothing", &smoothing, 0.0, 1.0);
+  r.Finish();
+}
+
+void RefineOptions::Check() const {
+  RELIT_REQUIRE(iterations >= 0, "refine.iterations must be >= 0");
+  RELIT_REQUIRE(step_m >= 0, "refine.step_m must be >= 0 (0 = automatic)");
+  RELIT_REQUIRE(free_space_tolerance > 0 && support_band > 0, "refine: tolerances must be > 0");
+  RELIT_REQUIRE(min_free_space_views >= 1, "refine.min_free_space_views must be >= 1");
+  RELIT_REQUIRE(data_weight >= 0 && data_weight <= 1, "refine.data_weight must be in [0, 1]");
+  RELIT_REQUIRE(smoothing >= 0 && smoothing <= 1, "refine.smoothing must be in [0, 1]");
+}
+
+nlohmann::json RefineOptions::ToJson() const {
+  return {{"enabled", enabled},
+          {"iterations", iterations},
+          {"step_m", step_m},
+          {"free_space_tolerance", free_space_tolerance},
+          {"min_free_space_views", min_free_space_views},
+          {"support_band", support_band},
+          {"min_facing_cosine", min_facing_cosine},
+          {"data_weight", data_weight},
+          {"smoothing", smoothing}};
+}
+
 void ReconstructOptions::Read(OptionsReader& r) {
   r.Read("workspace", &workspace);
   r.Read("mesh", &mesh);
@@ -211,6 +251,8 @@ void ReconstructOptions::Read(OptionsReader& r) {
   if (!mesh.empty() && !method_given) proxy.method = "mesh";  // mesh: alone means "use it"
   OptionsReader c = r.Child("cleanup");
   cleanup.Read(c);
+  OptionsReader rf = r.Child("refine");
+  refine.Read(rf);
   OptionsReader a = r.Child("atlas");
   atlas.Read(a);
   OptionsReader t = r.Child("trimap");
@@ -229,6 +271,7 @@ void ReconstructOptions::Check() const {
   RELIT_REQUIRE(mesh.empty() || proxy.method == "mesh", "reconstruct: a mesh (", mesh,
                 ") is given but proxy.method is ", proxy.method, "; set proxy.method: mesh (--mesh does)");
   cleanup.Check();
+  refine.Check();
   atlas.Check();
   trimap.Check();
   matting.Check();
@@ -241,6 +284,7 @@ nlohmann::json ReconstructOptions::ToJson() const {
           {"max_matte_frames", max_matte_frames},
           {"proxy", proxy.ToJson()},
           {"cleanup", cleanup.ToJson()},
+          {"refine", refine.ToJson()},
           {"atlas", atlas.ToJson()},
           {"trimap", trimap.ToJson()},
           {"matting", matting.ToJson()}};

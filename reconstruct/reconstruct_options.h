@@ -80,6 +80,11 @@ struct CleanupOptions {
   // (a bubble on a neck) removes that part instead (mesh_handles.cc).
   bool cut_small_handles = true;
   double cut_off_fraction = 0.01;
+  // Last step: faces that intersect others (folds of the fused surface) are
+  // cut out with a few rings of neighbours and the holes refilled, for up to
+  // self_intersection_rounds rounds (RemoveSelfIntersections).
+  bool remove_self_intersections = true;
+  int self_intersection_rounds = 10;
   void Read(OptionsReader& reader);
   void Check() const;
   nlohmann::json ToJson() const;
@@ -106,6 +111,27 @@ struct AtlasOptions {
   bool merge_charts = true;
   double merge_max_stretch = 1.05;
   bool write_preview = true;
+  void Read(OptionsReader& reader);
+  void Check() const;
+  nlohmann::json ToJson() const;
+};
+
+// Refinement of the cleaned proxy against the dense path's depth maps
+// (visibility_refine.h); skipped for user meshes and the sparse path.
+struct RefineOptions {
+  bool enabled = true;
+  // Defaults from the calibrated spot captures (docs/reconstruct.md): the
+  // `full` proxy's Chamfer 4.24 -> 3.25 mm, demo 7.02 -> 6.62 mm.
+  int iterations = 20;
+  double step_m = 0;                    // first (largest) move per iteration (0 = 2 x the median pixel footprint)
+  // A view sees through a vertex when its depth there exceeds the vertex's
+  // by more than this fraction (the 3x3 nearest depth, so edges do not carve).
+  double free_space_tolerance = 0.01;
+  int min_free_space_views = 3;         // and more views see through it than see it
+  double support_band = 0.04;           // depth within this fraction: the view sees the vertex
+  double min_facing_cosine = 0.4;       // views at grazing angles or behind the surface do not judge it
+  double data_weight = 0.5;             // fraction of the mean offset to the seen surface moved per iteration
+  double smoothing = 0.5;               // Taubin lambda per iteration (mu = -1.02 lambda); 0 = none
   void Read(OptionsReader& reader);
   void Check() const;
   nlohmann::json ToJson() const;
@@ -146,6 +172,7 @@ struct ReconstructOptions {
   int max_matte_frames = 0;             // 0 = every phone V frame
   ProxyOptions proxy;
   CleanupOptions cleanup;
+  RefineOptions refine;
   AtlasOptions atlas;
   TrimapOptions trimap;
   MattingOptions matting;

@@ -1,0 +1,236 @@
+#include "reconstruct/visibility_refine.h"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include <opencv2/imgproc.hpp>
+#include <spdlog/spdlog.h>
+#include <tbb/parallel_for.h>
+
+#include "core/error.h"
+#include "core/progress.h"
+
+namespace relit::reconstruct {
+namespace {
+
+// What the views say about one vertex.
+struct VertexEvidence {
+  int free_space = 0;  // views that see a surface behind it
+  int support = 0;     // views that see a surface at it
+  double mean_offset_m = 0;  // along the normal, to the seen surface (support-weighted)
+};
+
+// Per view, precomputed once: the pose both ways, and the nearest depth of
+// every 3x3 neighbourhood (unknown pixels ignored), so a foreground edge one
+// pixel off in the depth map does not count as seeing through the object.
+struct ViewData {
+  const Camera* camera = nullptr;
+  Rigid3 world_from_cam;
+  Eigen::Vector3d centre;
+  const cv::Mat* depth = nullptr;
+  cv::Mat nearest_depth;
+};
+
+cv::Mat NearestDepth3x3(const cv::Mat& depth) {
+  constexpr float kUnknown = std::numeric_limits<float>::max();
+  cv::Mat filled = depth.clone();
+  filled.setTo(kUnknown, depth <= 0);
+  cv::Mat nearest;
+  cv::erode(filled, nearest, cv::Mat::ones(3, 3, CV_8U), cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  nearest.setTo(0, nearest >= kUnknown);
+  return nearest;
+}
+
+VertexEvidence Judge(const Eigen::Vector3d& p, const Eigen::Vector3d& normal, const std::vector<ViewData>& views,
+                     const RefineOptions& options) {
+  VertexEvidence e;
+  double weighted_offset = 0, weight_sum = 0;
+  for (const ViewData& view : views) {
+    const Camera& camera = *view.camera;
+    const Eigen::Vector3d p_cam = camera.cam_from_world() * p;
+    if (p_cam.z() <= 0) continue;
+    const Eigen::Vector2d pixel = camera.ProjectCameraPoint(p_cam);
+    const int x = static_cast<int>(std::lround(pixel.x())), y = static_cast<int>(std::lround(pixel.y()));
+    if (x < 0 || y < 0 || x >= view.depth->cols || y >= view.depth->rows) continue;
+    // Only views in front of the surface judge it: a grazing ray passes the
+    // rim of the true surface too, and would erode every silhouette.
+    const double cosine = normal.dot((view.centre - p).normalized());
+    if (cosine < options.min_facing_cosine) continue;
+    const double z_vertex = p_cam.z();
+    const float nearest = view.nearest_depth.at<float>(y, x);
+    if (nearest > 0 && nearest > z_vertex * (1 + options.free_space_tolerance)) {
+      ++e.free_space;
+      continue;
+    }
+    const float z_seen = view.depth->at<float>(y, x);
+    if (z_seen <= 0 || std::abs(z_seen - z_vertex) > options.support_band * z_vertex) continue;
+    ++e.support;
+    const Eigen::Vector3d ray = camera.PixelToCameraRay(Eigen::Vector2d(x, y));
+    const Eigen::Vector3d seen = view.world_from_cam * (ray * (z_seen / ray.z()));
+    // The pixel centre's ray misses p by up to half a pixel sideways: only
+    // the offset along the normal counts.
+    weighted_offset += cosine * (seen - p).dot(normal);
+    weight_sum += cosine;
+  }
+  if (weight_sum > 0) e.mean_offset_m = weighted_offset / weight_sum;
+  return e;
+}
+
+// One Taubin pass (umbrella operator over the one-ring).
+void SmoothStep(const std::vector<std::vector<int>>& rings, double factor, std::vector<Eigen::Vector3d>* positions) {
+  const std::vector<Eigen::Vector3d> before = *positions;
+  tbb::parallel_for(size_t(0), positions->size(), [&](size_t v) {
+    if (rings[v].empty()) return;
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (int u : rings[v]) mean += before[u];
+    mean /= static_cast<double>(rings[v].size());
+    (*positions)[v] = before[v] + factor * (mean - before[v]);
+  });
+}
+
+std::vector<Eigen::Vector3d> VertexNormals(const std::vector<Eigen::Vector3d>& positions,
+                                           const std::vector<Eigen::Vector3i>& triangles) {
+  std::vector<Eigen::Vector3d> normals(positions.size(), Eigen::Vector3d::Zero());
+  for (const Eigen::Vector3i& t : triangles) {
+    const Eigen::Vector3d n = (positions[t[1]] - positions[t[0]]).cross(positions[t[2]] - positions[t[0]]);
+    for (int k = 0; k < 3; ++k) normals[t[k]] += n;
+  }
+  for (Eigen::Vector3d& n : normals) {
+    const double length = n.norm();
+    n = length > 0 ? Eigen::Vector3d(n / length) : Eigen::Vector3d::UnitZ();
+  }
+  return normals;
+}
+
+}  // namespace
+
+nlohmann::json RefineReport::ToJson() const {
+  return {{"iterations", iterations},
+          {"step_m", step_m},
+          {"vertices", vertices},
+          {"carved_vertices_first", carved_vertices_first},
+          {"carved_vertices_last", carved_vertices_last},
+          {"supported_vertices", supported_vertices},
+          {"unseen_vertices", unseen_vertices},
+          {"mean_move_m", mean_move_m},
+          {"max_move_m", max_move_m},
+          {"seconds", seconds},
+          {"self_intersection_faces_replaced", self_intersection_faces_replaced}};
+}
+
+render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const DepthEvidence& evidence,
+                                         const RefineOptions& options, double floor_z_m, RefineReport* report) {
+  const auto start = std::chrono::steady_clock::now();
+  RELIT_REQUIRE(evidence.cameras.size() == evidence.depths.size(), "refine: ", evidence.cameras.size(),
+                " cameras but ", evidence.depths.size(), " depth maps");
+  RELIT_REQUIRE(!mesh.triangles.empty(), "refine: the proxy has no triangles");
+  // Vertices at equal positions (UV seams of a user mesh) move as one.
+  std::map<std::array<float, 3>, int> welded_index;
+  std::vector<int> welded(mesh.positions.size());
+  std::vector<Eigen::Vector3d> positions;
+  for (size_t v = 0; v < mesh.positions.size(); ++v) {
+    const Eigen::Vector3f& p = mesh.positions[v];
+    const auto [it, inserted] =
+        welded_index.emplace(std::array<float, 3>{p.x(), p.y(), p.z()}, static_cast<int>(positions.size()));
+    if (inserted) positions.push_back(p.cast<double>());
+    welded[v] = it->second;
+  }
+  const size_t n = positions.size();
+  std::vector<Eigen::Vector3i> triangles;
+  for (const Eigen::Vector3i& t : mesh.triangles) triangles.emplace_back(welded[t[0]], welded[t[1]], welded[t[2]]);
+  const std::vector<Eigen::Vector3d> original = positions;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : positions) centroid += p / static_cast<double>(n);
+  std::vector<ViewData> views(evidence.cameras.size());
+  std::vector<double> footprints;
+  for (size_t k = 0; k < views.size(); ++k) {
+    const Camera& camera = evidence.cameras[k];
+    RELIT_REQUIRE(evidence.depths[k].type() == CV_32FC1 && evidence.depths[k].cols == camera.intrinsics().width &&
+                      evidence.depths[k].rows == camera.intrinsics().height,
+                  "refine: the depth map of ", k < evidence.names.size() ? evidence.names[k] : std::to_string(k),
+                  " does not match its camera");
+    views[k].camera = &camera;
+    views[k].world_from_cam = camera.world_from_cam();
+    views[k].centre = camera.Center();
+    views[k].depth = &evidence.depths[k];
+    views[k].nearest_depth = NearestDepth3x3(evidence.depths[k]);
+    footprints.push_back((views[k].centre - centroid).norm() / camera.intrinsics().fx);
+  }
+  RELIT_REQUIRE(!footprints.empty(), "refine: no depth maps");
+  std::nth_element(footprints.begin(), footprints.begin() + footprints.size() / 2, footprints.end());
+  const double full_step = options.step_m > 0 ? options.step_m : 2.0 * footprints[footprints.size() / 2];
+
+  std::vector<std::vector<int>> rings(n);
+  for (const Eigen::Vector3i& t : triangles) {
+    for (int k = 0; k < 3; ++k) {
+      for (int j = 1; j < 3; ++j) rings[t[k]].push_back(t[(k + j) % 3]);
+    }
+  }
+  for (std::vector<int>& ring : rings) {
+    std::sort(ring.begin(), ring.end());
+    ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
+  }
+
+  report->step_m = full_step;
+  report->vertices = static_cast<int>(n);
+  std::vector<VertexEvidence> judged(n);
+  Progress progress("refine proxy", options.iterations);
+  for (int iteration = 0; iteration < options.iterations; ++iteration) {
+    const std::vector<Eigen::Vector3d> normals = VertexNormals(positions, triangles);
+    tbb::parallel_for(size_t(0), n, [&](size_t v) { judged[v] = Judge(positions[v], normals[v], views, options); });
+    // The step shrinks linearly to zero: noisy depths keep flagging a few
+    // vertices, and a fixed step would keep eroding them.
+    const double step = full_step * (1.0 - static_cast<double>(iteration) / options.iterations);
+    int carved = 0, supported = 0, unseen = 0;
+    for (size_t v = 0; v < n; ++v) {
+      const VertexEvidence& e = judged[v];
+      double move = 0;
+      if (e.free_space >= options.min_free_space_views && e.free_space > e.support) {
+        move = -step;
+        ++carved;
+      } else if (e.support > 0) {
+        move = std::clamp(options.data_weight * e.mean_offset_m, -step, step);
+        ++supported;
+      } else {
+        ++unseen;
+      }
+      positions[v] += move * normals[v];
+    }
+    if (options.smoothing > 0) {
+      SmoothStep(rings, options.smoothing, &positions);
+      SmoothStep(rings, -1.02 * options.smoothing, &positions);
+    }
+    for (Eigen::Vector3d& p : positions) p.z() = std::max(p.z(), floor_z_m);
+    if (iteration == 0) report->carved_vertices_first = carved;
+    report->carved_vertices_last = carved;
+    report->supported_vertices = supported;
+    report->unseen_vertices = unseen;
+    report->iterations = iteration + 1;
+    spdlog::debug("refine {}: {} vertices carved, {} supported, {} unseen", iteration, carved, supported, unseen);
+    progress.Advance();
+  }
+
+  render::TriangleMesh refined = mesh;
+  double move_sum = 0;
+  for (size_t v = 0; v < n; ++v) {
+    const double move = (positions[v] - original[v]).norm();
+    move_sum += move;
+    report->max_move_m = std::max(report->max_move_m, move);
+  }
+  for (size_t v = 0; v < mesh.positions.size(); ++v) refined.positions[v] = positions[welded[v]].cast<float>();
+  report->mean_move_m = move_sum / static_cast<double>(n);
+  if (!refined.normals.empty()) refined.ComputeVertexNormals();
+  report->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  spdlog::info("refine: {} iterations of {:.2f} mm steps; {} of {} vertices in free space at first, {} at last; "
+               "vertices moved {:.2f} mm on average (max {:.2f} mm)",
+               report->iterations, 1e3 * full_step, report->carved_vertices_first, n, report->carved_vertices_last,
+               1e3 * report->mean_move_m, 1e3 * report->max_move_m);
+  return refined;
+}
+
+}  // namespace relit::reconstruct

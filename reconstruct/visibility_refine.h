@@ -1,0 +1,62 @@
+// Refines the cleaned proxy against the per-view depth maps it came from.
+//
+// Poisson extrapolates where the fused points are sparse (bulges beside the
+// legs, a skirt down to the crop plane under the body), and its smoothing
+// blurs what the points do say. Every depth map holds two kinds of evidence
+// about a proxy vertex p seen by that view:
+//  - free space: the view saw a surface *behind* p (the table under the
+//    belly, the far wall of a bulge): the ray to p is empty, so p lies outside
+//    the object and moves inward;
+//  - support: the view saw a surface within a band around p and facing it:
+//    p moves towards that surface (robust mean over the views).
+// Only views in front of the surface judge a vertex. Each iteration moves
+// every vertex along its normal by at most one step (shrinking linearly to
+// zero over the iterations) and Taubin-smooths the mesh (no shrinkage), as
+// space carving and depth-map mesh refinement do in multi-view stereo.
+// The depth maps should be the multi-view consistent ones
+// (ConsistentDepthMaps): single-pair mismatches would carve real surface.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "core/camera.h"
+#include "core/render/mesh.h"
+#include "reconstruct/reconstruct_options.h"
+
+namespace relit::reconstruct {
+
+// Depth maps (metres along the optical axis, CV_32F, 0 = unknown) with the
+// undistorted cameras they were computed for; the table and board are in
+// them (no crop), which is what carves the space under the object.
+struct DepthEvidence {
+  std::vector<std::string> names;  // frame names, for messages
+  std::vector<Camera> cameras;
+  std::vector<cv::Mat> depths;
+  bool empty() const { return depths.empty(); }
+};
+
+struct RefineReport {
+  int iterations = 0;
+  double step_m = 0;
+  int vertices = 0;
+  int carved_vertices_first = 0;   // vertices in free space at the first iteration
+  int carved_vertices_last = 0;    // ... and at the last
+  int supported_vertices = 0;      // vertices some view saw (at the last iteration)
+  int unseen_vertices = 0;         // neither seen nor seen through (left to the smoothing)
+  double mean_move_m = 0;          // mean distance each vertex moved in all
+  double max_move_m = 0;
+  double seconds = 0;
+  int self_intersection_faces_replaced = 0;  // by the stage's RemoveSelfIntersections afterwards
+  nlohmann::json ToJson() const;
+};
+
+// Moves the vertices of a closed, outward-oriented mesh (topology unchanged),
+// never below z = floor_z_m (the crop plane above the board).
+render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const DepthEvidence& evidence,
+                                         const RefineOptions& options, double floor_z_m, RefineReport* report);
+
+}  // namespace relit::reconstruct

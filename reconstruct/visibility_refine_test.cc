@@ -1,0 +1,152 @@
+// Refinement against depth maps on a scene with a closed-form answer: a
+// sphere above a table, seen by a ring of cameras whose depth maps are
+// ray-traced analytically.
+#include <cmath>
+#include <map>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "core/render/mesh.h"
+#include "reconstruct/visibility_refine.h"
+
+namespace relit::reconstruct {
+namespace {
+
+const Eigen::Vector3d kCentre(0.01, -0.02, 0.05);
+constexpr double kRadius = 0.03;
+
+Camera LookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
+  const Eigen::Vector3d forward = (target - eye).normalized();
+  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d down = forward.cross(right);
+  Eigen::Matrix3d cam_from_world_rotation;
+  cam_from_world_rotation.row(0) = right;
+  cam_from_world_rotation.row(1) = down;
+  cam_from_world_rotation.row(2) = forward;
+  Intrinsics k;
+  k.width = 320;
+  k.height = 240;
+  k.fx = k.fy = 400;
+  k.cx = 160;
+  k.cy = 120;
+  Rigid3 pose;
+  pose.rotation = Eigen::Quaterniond(cam_from_world_rotation);
+  pose.translation = -(cam_from_world_rotation * eye);
+  return Camera(k, pose);
+}
+
+// Depth (along the optical axis) of the sphere, else of the table (z = 0,
+// 0.3 m square), else unknown; Gaussian noise of `noise_m`.
+cv::Mat RenderDepth(const Camera& camera, double noise_m, std::mt19937* rng) {
+  std::normal_distribution<double> noise(0.0, noise_m);
+  cv::Mat depth(camera.intrinsics().height, camera.intrinsics().width, CV_32F, cv::Scalar(0));
+  const Eigen::Vector3d origin = camera.Center();
+  const Eigen::Matrix3d world_from_cam = camera.world_from_cam().rotation.toRotationMatrix();
+  for (int y = 0; y < depth.rows; ++y) {
+    for (int x = 0; x < depth.cols; ++x) {
+      const Eigen::Vector3d ray_cam = camera.PixelToCameraRay(Eigen::Vector2d(x, y));
+      const Eigen::Vector3d ray = world_from_cam * ray_cam;
+      double t = -1;
+      const Eigen::Vector3d oc = origin - kCentre;
+      const double b = oc.dot(ray), c = oc.squaredNorm() - kRadius * kRadius, disc = b * b - c;
+      if (disc >= 0) t = -b - std::sqrt(disc);
+      if (t <= 0 && ray.z() < 0) {
+        const double t_table = -origin.z() / ray.z();
+        const Eigen::Vector3d hit = origin + t_table * ray;
+        if (std::abs(hit.x()) < 0.15 && std::abs(hit.y()) < 0.15) t = t_table;
+      }
+      if (t > 0) depth.at<float>(y, x) = static_cast<float>(t * ray_cam.z() + (noise_m > 0 ? noise(*rng) : 0.0));
+    }
+  }
+  return depth;
+}
+
+DepthEvidence RingOfViews(double noise_m) {
+  DepthEvidence evidence;
+  std::mt19937 rng(7);
+  for (double elevation_deg : {15.0, 45.0}) {
+    for (int i = 0; i < 12; ++i) {
+      const double azimuth = 2 * M_PI * (i + (elevation_deg > 20 ? 0.5 : 0.0)) / 12;
+      const double elevation = elevation_deg * M_PI / 180;
+      const Eigen::Vector3d eye = kCentre + 0.4 * Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
+                                                                  std::cos(elevation) * std::sin(azimuth),
+                                                                  std::sin(elevation));
+      evidence.names.push_back("view_" + std::to_string(evidence.cameras.size()));
+      evidence.cameras.push_back(LookAt(eye, kCentre));
+      evidence.depths.push_back(RenderDepth(evidence.cameras.back(), noise_m, &rng));
+    }
+  }
+  return evidence;
+}
+
+// The distance of the vertices from the true sphere: mean and max (metres);
+// with `upper_only`, of those above its centre (the cameras at 15 and 45
+// degrees see the lower half at grazing angles or not at all).
+std::pair<double, double> SphereError(const render::TriangleMesh& mesh, bool upper_only = false) {
+  double sum = 0, max = 0;
+  int count = 0;
+  for (const Eigen::Vector3f& p : mesh.positions) {
+    if (upper_only && p.z() < kCentre.z()) continue;
+    const double e = std::abs((p.cast<double>() - kCentre).norm() - kRadius);
+    sum += e;
+    max = std::max(max, e);
+    ++count;
+  }
+  return {sum / count, max};
+}
+
+render::TriangleMesh Sphere(double radius) { return render::MakeSphere(kCentre.cast<float>(), radius, 48, 24); }
+
+TEST(VisibilityRefineTest, AnInflatedProxyIsCarvedToTheSeenSurface) {
+  const DepthEvidence evidence = RingOfViews(0.0);
+  const render::TriangleMesh proxy = Sphere(kRadius + 0.01);
+  ASSERT_NEAR(SphereError(proxy).first, 0.01, 1e-4);
+  RefineReport report;
+  const render::TriangleMesh refined = RefineWithDepthMaps(proxy, evidence, RefineOptions{}, 0.0, &report);
+  const auto [mean, max] = SphereError(refined);
+  EXPECT_LT(mean, 0.0025) << "max " << max;  // from 10 mm
+  EXPECT_LT(SphereError(refined, true).first, 0.001);
+  EXPECT_GT(report.carved_vertices_first, 0.5 * report.vertices);
+  EXPECT_EQ(refined.triangles, proxy.triangles);
+}
+
+TEST(VisibilityRefineTest, AShrunkenProxyIsPulledOutToTheSeenSurface) {
+  const DepthEvidence evidence = RingOfViews(0.0);
+  const render::TriangleMesh proxy = Sphere(kRadius - 0.0025);
+  RefineReport report;
+  const render::TriangleMesh refined = RefineWithDepthMaps(proxy, evidence, RefineOptions{}, 0.0, &report);
+  EXPECT_LT(SphereError(refined).first, 0.001);
+  EXPECT_EQ(report.carved_vertices_first, 0);
+}
+
+TEST(VisibilityRefineTest, NoisyDepthMapsAverageOut) {
+  // 2 mm of noise per pixel (several pixels of disparity at these baselines):
+  // the vertices sit much closer than that because every view votes.
+  const DepthEvidence evidence = RingOfViews(0.002);
+  const render::TriangleMesh proxy = Sphere(kRadius + 0.003);
+  RefineReport report;
+  const render::TriangleMesh refined = RefineWithDepthMaps(proxy, evidence, RefineOptions{}, 0.0, &report);
+  EXPECT_LT(SphereError(refined).first, 0.001);
+}
+
+TEST(VisibilityRefineTest, WithoutEvidenceTheProxyStays) {
+  DepthEvidence evidence = RingOfViews(0.0);
+  for (cv::Mat& depth : evidence.depths) depth.setTo(0);
+  const render::TriangleMesh proxy = Sphere(kRadius);
+  RefineReport report;
+  const render::TriangleMesh refined = RefineWithDepthMaps(proxy, evidence, RefineOptions{}, 0.0, &report);
+  EXPECT_LT(SphereError(refined).second, 0.0005);  // Taubin smoothing does not shrink it
+  EXPECT_EQ(report.unseen_vertices, report.vertices);
+}
+
+TEST(VisibilityRefineTest, MismatchedDepthMapsAreRejected) {
+  DepthEvidence evidence = RingOfViews(0.0);
+  evidence.depths[3] = cv::Mat(10, 10, CV_32F, cv::Scalar(0));
+  RefineReport report;
+  EXPECT_THROW(RefineWithDepthMaps(Sphere(kRadius), evidence, RefineOptions{}, 0.0, &report), Error);
+}
+
+}  // namespace
+}  // namespace relit::reconstruct
