@@ -50,18 +50,13 @@ namespace SMS = CGAL::Surface_mesh_simplification;
 // Indexed soup with exactly equal positions merged.
 void ToSoup(const render::TriangleMesh& mesh, const std::vector<bool>* keep,
             std::vector<Point>* points, std::vector<Polygon>* polygons) {
-  std::map<std::array<float, 3>, std::size_t> index;
-  std::vector<std::size_t> remap(mesh.positions.size());
-  for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
-    const Eigen::Vector3f& p = mesh.positions[i];
-    const auto [it, inserted] = index.emplace(std::array<float, 3>{p.x(), p.y(), p.z()}, points->size());
-    if (inserted) points->emplace_back(p.x(), p.y(), p.z());
-    remap[i] = it->second;
-  }
-  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+  const render::TriangleMesh welded = WeldEqualPositions(mesh);
+  for (const Eigen::Vector3f& p : welded.positions) points->emplace_back(p.x(), p.y(), p.z());
+  for (std::size_t f = 0; f < welded.triangles.size(); ++f) {
     if (keep && !(*keep)[f]) continue;
-    const Eigen::Vector3i& t = mesh.triangles[f];
-    polygons->push_back({remap[t[0]], remap[t[1]], remap[t[2]]});
+    const Eigen::Vector3i& t = welded.triangles[f];
+    polygons->push_back({static_cast<std::size_t>(t[0]), static_cast<std::size_t>(t[1]),
+                         static_cast<std::size_t>(t[2])});
   }
 }
 
@@ -140,6 +135,24 @@ void ClampAbovePlane(Mesh& mesh, double z_min) {
 }
 
 }  // namespace
+
+render::TriangleMesh WeldEqualPositions(const render::TriangleMesh& mesh, std::vector<int>* remap) {
+  render::TriangleMesh out;
+  std::map<std::array<float, 3>, int> index;
+  std::vector<int> new_index(mesh.positions.size());
+  for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
+    const Eigen::Vector3f& p = mesh.positions[i];
+    const auto [it, inserted] =
+        index.emplace(std::array<float, 3>{p.x(), p.y(), p.z()}, static_cast<int>(out.positions.size()));
+    if (inserted) out.positions.push_back(p);
+    new_index[i] = it->second;
+  }
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    out.triangles.emplace_back(new_index[t[0]], new_index[t[1]], new_index[t[2]]);
+  }
+  if (remap) *remap = std::move(new_index);
+  return out;
+}
 
 nlohmann::json CleanupReport::ToJson() const {
   return {{"input_faces", input_faces},           {"cropped_faces", cropped_faces},

@@ -76,6 +76,11 @@ struct MeshStats {
   nlohmann::json ToJson() const;
 };
 
+// The mesh with exactly equal positions merged into one vertex (OBJ files
+// split vertices at UV seams); triangles re-indexed, normals and UVs
+// dropped. `remap` (optional) gets each input vertex's new index.
+render::TriangleMesh WeldEqualPositions(const render::TriangleMesh& mesh, std::vector<int>* remap = nullptr);
+
 // Topology of an indexed mesh; equal positions are merged first, so UV seams
 // do not count as boundaries.
 MeshStats AnalyseMesh(const render::TriangleMesh& mesh);

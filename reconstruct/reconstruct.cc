@@ -77,7 +77,8 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
   spdlog::info("crop: centre ({:.3f}, {:.3f}) m, radius {:.3f} m, above z = {:.4f} m", crop.centre_xy.x(),
                crop.centre_xy.y(), crop.radius_m, options.cleanup.crop_margin_m);
   render::TriangleMesh input;
-  DepthEvidence evidence;
+  const bool refine = options.refine.enabled && options.refine.iterations > 0;
+  DepthEvidence evidence;  // only gathered when the refinement will use it
   if (options.proxy.method == "mesh") {
     record.AddInput("mesh", options.mesh);
     auto timer = record.Time("load_mesh");
@@ -86,7 +87,7 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
   } else {
     nlohmann::json proxy_report;
     input = BuildProxyFromImages(workspace, cameras, crop, options.proxy, root / "proxy_points", &record,
-                                 &proxy_report, &evidence);
+                                 &proxy_report, refine ? &evidence : nullptr);
     report["proxy"] = proxy_report;
     record.Set("proxy_method", proxy_report["method"]);
   }
@@ -96,7 +97,7 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
     auto timer = record.Time("cleanup");
     proxy = CleanupMesh(input, options.cleanup, crop, &cleanup_report);
   }
-  if (options.refine.enabled && options.refine.iterations > 0) {
+  if (refine) {
     if (evidence.empty()) {
       spdlog::info("refine: skipped (the {} proxy has no depth maps to refine against)", options.proxy.method);
       report["refine"] = {{"skipped", "no depth maps (proxy.method " + options.proxy.method + ")"}};

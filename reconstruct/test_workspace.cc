@@ -1,14 +1,13 @@
 #include "reconstruct/test_workspace.h"
 
-#include <array>
 #include <filesystem>
-#include <map>
 
 #include "core/color.h"
 #include "core/image.h"
 #include "core/render/envmaps.h"
 #include "core/render/path_tracer.h"
 #include "core/render/scene.h"
+#include "reconstruct/mesh_cleanup.h"
 #include "tools/synth/capture_plan.h"
 #include "tools/synth/scene.h"
 #include "tools/synth/synth_options.h"
@@ -16,25 +15,6 @@
 namespace relit::reconstruct::testing {
 
 namespace fs = std::filesystem;
-
-namespace {
-
-// Merges equal positions (OBJ seams) so the surface can be offset without cracks.
-render::TriangleMesh Weld(const render::TriangleMesh& mesh) {
-  render::TriangleMesh out;
-  std::map<std::array<float, 3>, int> index;
-  std::vector<int> remap(mesh.positions.size());
-  for (size_t i = 0; i < mesh.positions.size(); ++i) {
-    const Eigen::Vector3f& p = mesh.positions[i];
-    const auto [it, inserted] = index.emplace(std::array<float, 3>{p.x(), p.y(), p.z()}, static_cast<int>(out.positions.size()));
-    if (inserted) out.positions.push_back(p);
-    remap[i] = it->second;
-  }
-  for (const Eigen::Vector3i& t : mesh.triangles) out.triangles.push_back({remap[t[0]], remap[t[1]], remap[t[2]]});
-  return out;
-}
-
-}  // namespace
 
 TestWorkspace MakeTestWorkspace(const std::string& dir, int frames, int samples_per_pixel, double rough_offset_m,
                                 int geometry_frames) {
@@ -59,7 +39,8 @@ TestWorkspace MakeTestWorkspace(const std::string& dir, int frames, int samples_
   }
   ws.user_mesh = (fs::path(dir) / "user_mesh.obj").string();
   render::SaveMesh(ws.user_mesh, scan);
-  render::TriangleMesh rough = Weld(ws.truth_mesh);
+  // Equal positions (OBJ seams) merged so the surface is offset without cracks.
+  render::TriangleMesh rough = WeldEqualPositions(ws.truth_mesh);
   rough.ComputeVertexNormals();
   for (size_t i = 0; i < rough.positions.size(); ++i) {
     rough.positions[i] += static_cast<float>(rough_offset_m) * rough.normals[i];

@@ -1,12 +1,10 @@
 #include "reconstruct/visibility_refine.h"
 
 #include <algorithm>
-#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <map>
 
 #include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
@@ -14,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/progress.h"
+#include "reconstruct/mesh_cleanup.h"
 
 namespace relit::reconstruct {
 namespace {
@@ -82,29 +81,15 @@ VertexEvidence Judge(const Eigen::Vector3d& p, const Eigen::Vector3d& normal, co
 }
 
 // One Taubin pass (umbrella operator over the one-ring).
-void SmoothStep(const std::vector<std::vector<int>>& rings, double factor, std::vector<Eigen::Vector3d>* positions) {
-  const std::vector<Eigen::Vector3d> before = *positions;
+void SmoothStep(const std::vector<std::vector<int>>& rings, float factor, std::vector<Eigen::Vector3f>* positions) {
+  const std::vector<Eigen::Vector3f> before = *positions;
   tbb::parallel_for(size_t(0), positions->size(), [&](size_t v) {
     if (rings[v].empty()) return;
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    Eigen::Vector3f mean = Eigen::Vector3f::Zero();
     for (int u : rings[v]) mean += before[u];
-    mean /= static_cast<double>(rings[v].size());
+    mean /= static_cast<float>(rings[v].size());
     (*positions)[v] = before[v] + factor * (mean - before[v]);
   });
-}
-
-std::vector<Eigen::Vector3d> VertexNormals(const std::vector<Eigen::Vector3d>& positions,
-                                           const std::vector<Eigen::Vector3i>& triangles) {
-  std::vector<Eigen::Vector3d> normals(positions.size(), Eigen::Vector3d::Zero());
-  for (const Eigen::Vector3i& t : triangles) {
-    const Eigen::Vector3d n = (positions[t[1]] - positions[t[0]]).cross(positions[t[2]] - positions[t[0]]);
-    for (int k = 0; k < 3; ++k) normals[t[k]] += n;
-  }
-  for (Eigen::Vector3d& n : normals) {
-    const double length = n.norm();
-    n = length > 0 ? Eigen::Vector3d(n / length) : Eigen::Vector3d::UnitZ();
-  }
-  return normals;
 }
 
 }  // namespace
@@ -130,22 +115,13 @@ render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const
                 " cameras but ", evidence.depths.size(), " depth maps");
   RELIT_REQUIRE(!mesh.triangles.empty(), "refine: the proxy has no triangles");
   // Vertices at equal positions (UV seams of a user mesh) move as one.
-  std::map<std::array<float, 3>, int> welded_index;
-  std::vector<int> welded(mesh.positions.size());
-  std::vector<Eigen::Vector3d> positions;
-  for (size_t v = 0; v < mesh.positions.size(); ++v) {
-    const Eigen::Vector3f& p = mesh.positions[v];
-    const auto [it, inserted] =
-        welded_index.emplace(std::array<float, 3>{p.x(), p.y(), p.z()}, static_cast<int>(positions.size()));
-    if (inserted) positions.push_back(p.cast<double>());
-    welded[v] = it->second;
-  }
+  std::vector<int> welded_index;
+  render::TriangleMesh welded = WeldEqualPositions(mesh, &welded_index);
+  std::vector<Eigen::Vector3f>& positions = welded.positions;
   const size_t n = positions.size();
-  std::vector<Eigen::Vector3i> triangles;
-  for (const Eigen::Vector3i& t : mesh.triangles) triangles.emplace_back(welded[t[0]], welded[t[1]], welded[t[2]]);
-  const std::vector<Eigen::Vector3d> original = positions;
+  const std::vector<Eigen::Vector3f> original = positions;
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& p : positions) centroid += p / static_cast<double>(n);
+  for (const Eigen::Vector3f& p : positions) centroid += p.cast<double>() / static_cast<double>(n);
   std::vector<ViewData> views(evidence.cameras.size());
   std::vector<double> footprints;
   for (size_t k = 0; k < views.size(); ++k) {
@@ -166,7 +142,7 @@ render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const
   const double full_step = options.step_m > 0 ? options.step_m : 2.0 * footprints[footprints.size() / 2];
 
   std::vector<std::vector<int>> rings(n);
-  for (const Eigen::Vector3i& t : triangles) {
+  for (const Eigen::Vector3i& t : welded.triangles) {
     for (int k = 0; k < 3; ++k) {
       for (int j = 1; j < 3; ++j) rings[t[k]].push_back(t[(k + j) % 3]);
     }
@@ -181,8 +157,11 @@ render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const
   std::vector<VertexEvidence> judged(n);
   Progress progress("refine proxy", options.iterations);
   for (int iteration = 0; iteration < options.iterations; ++iteration) {
-    const std::vector<Eigen::Vector3d> normals = VertexNormals(positions, triangles);
-    tbb::parallel_for(size_t(0), n, [&](size_t v) { judged[v] = Judge(positions[v], normals[v], views, options); });
+    welded.ComputeVertexNormals();
+    const std::vector<Eigen::Vector3f>& normals = welded.normals;
+    tbb::parallel_for(size_t(0), n, [&](size_t v) {
+      judged[v] = Judge(positions[v].cast<double>(), normals[v].cast<double>(), views, options);
+    });
     // The step shrinks linearly to zero: noisy depths keep flagging a few
     // vertices, and a fixed step would keep eroding them.
     const double step = full_step * (1.0 - static_cast<double>(iteration) / options.iterations);
@@ -199,13 +178,13 @@ render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const
       } else {
         ++unseen;
       }
-      positions[v] += move * normals[v];
+      positions[v] += static_cast<float>(move) * normals[v];
     }
     if (options.smoothing > 0) {
-      SmoothStep(rings, options.smoothing, &positions);
-      SmoothStep(rings, -1.02 * options.smoothing, &positions);
+      SmoothStep(rings, static_cast<float>(options.smoothing), &positions);
+      SmoothStep(rings, static_cast<float>(-1.02 * options.smoothing), &positions);
     }
-    for (Eigen::Vector3d& p : positions) p.z() = std::max(p.z(), floor_z_m);
+    for (Eigen::Vector3f& p : positions) p.z() = std::max(p.z(), static_cast<float>(floor_z_m));
     if (iteration == 0) report->carved_vertices_first = carved;
     report->carved_vertices_last = carved;
     report->supported_vertices = supported;
@@ -218,11 +197,11 @@ render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const
   render::TriangleMesh refined = mesh;
   double move_sum = 0;
   for (size_t v = 0; v < n; ++v) {
-    const double move = (positions[v] - original[v]).norm();
+    const double move = (positions[v] - original[v]).cast<double>().norm();
     move_sum += move;
     report->max_move_m = std::max(report->max_move_m, move);
   }
-  for (size_t v = 0; v < mesh.positions.size(); ++v) refined.positions[v] = positions[welded[v]].cast<float>();
+  for (size_t v = 0; v < mesh.positions.size(); ++v) refined.positions[v] = positions[welded_index[v]];
   report->mean_move_m = move_sum / static_cast<double>(n);
   if (!refined.normals.empty()) refined.ComputeVertexNormals();
   report->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
