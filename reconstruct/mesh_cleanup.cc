@@ -26,8 +26,10 @@
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
 #include <CGAL/Polygon_mesh_processing/remesh.h>
 #include <CGAL/Polygon_mesh_processing/repair.h>
+#include <CGAL/Polygon_mesh_processing/repair_degeneracies.h>
 #include <CGAL/Polygon_mesh_processing/repair_polygon_soup.h>
 #include <CGAL/Polygon_mesh_processing/self_intersections.h>
+#include <CGAL/Polygon_mesh_processing/tangential_relaxation.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Count_stop_predicate.h>
@@ -211,6 +213,10 @@ render::TriangleMesh CleanupMesh(const render::TriangleMesh& input, const Cleanu
   // 4. Holes (the crop opens the object where it touched the board).
   report->holes_filled = FillHoles(mesh, options.fair_holes);
   ClampAbovePlane(mesh, options.crop_margin_m);
+  // Clamping flattens faces that reached below the plane; CGAL 5.5's
+  // tangential relaxation (in the remeshing below) crashes on degenerate faces.
+  PMP::remove_degenerate_faces(mesh);
+  mesh.collect_garbage();
   PMP::duplicate_non_manifold_vertices(mesh);
   if (CGAL::is_closed(mesh)) PMP::orient(mesh, CGAL::parameters::outward_orientation(true));
 
@@ -218,10 +224,17 @@ render::TriangleMesh CleanupMesh(const render::TriangleMesh& input, const Cleanu
   const double area = PMP::area(mesh);
   const double target_edge_m =
       std::sqrt(4.0 * area / (std::sqrt(3.0) * options.target_faces)) * 0.85;
-  if (options.remesh_iterations > 0) {
+  // One iteration at a time, with the tangential relaxation run on its own
+  // after dropping degenerate faces: CGAL 5.5's relaxation inside the
+  // remeshing dereferences a null halfedge (segfault) when a flip has left a
+  // vertex with only degenerate faces, as on folded advancing-front surfaces.
+  for (int i = 0; i < options.remesh_iterations; ++i) {
     PMP::isotropic_remeshing(faces(mesh), target_edge_m, mesh,
-                             CGAL::parameters::number_of_iterations(options.remesh_iterations));
+                             CGAL::parameters::number_of_iterations(1).number_of_relaxation_steps(0));
     mesh.collect_garbage();
+    PMP::remove_degenerate_faces(mesh);
+    mesh.collect_garbage();
+    PMP::tangential_relaxation(vertices(mesh), mesh);
   }
   if (static_cast<int>(mesh.number_of_faces()) > options.target_faces) {
     const std::size_t target_edges =

@@ -15,6 +15,7 @@
 #include "core/progress.h"
 #include "reconstruct/depth_cache.h"
 #include "reconstruct/depth_fusion.h"
+#include "reconstruct/photo_refine.h"
 #include "reconstruct/point_surface.h"
 #include "reconstruct/stereo_depth.h"
 
@@ -109,6 +110,16 @@ DensePoints DenseDepthPoints(const fs::path& workspace, const CamerasFile& camer
   }
   (*report)["pair_depth_maps_from_cache"] = cached.load();
   if (cached > 0) spdlog::info("dense: {} pair depth maps from the cache", cached.load());
+  if (options.photo_refine) {
+    auto timer = record->Time("proxy_photo_refine");
+    Progress progress("photometric refinement", static_cast<int64_t>(n));
+    PhotoRefineStats photo;
+    depths = RefineDepthMapsPhotometric(views, depths, centre, box, options, &photo, [&] { progress.Advance(); });
+    (*report)["photo_refine"] = photo.ToJson();
+    spdlog::info("dense: photometric refinement moved {} depth pixels by {:.2f} mm on average, dropped {}, kept {} "
+                 "flat and {} unseen ones",
+                 photo.refined_px, 1e3 * photo.mean_shift_m, photo.dropped_px, photo.flat_px, photo.unseen_px);
+  }
   DensePoints result;
   std::vector<FrameFusionStats> stats;
   {

@@ -15,6 +15,15 @@ void ProxyOptions::Read(OptionsReader& r) {
   r.ReadRange("uniqueness_ratio", &uniqueness_ratio, 0, 100);
   r.ReadRange("speckle_window_px", &speckle_window_px, 0, 10000);
   r.ReadRange("max_left_right_difference_px", &max_left_right_difference_px, 0.0, 100.0);
+  r.Read("photo_refine", &photo_refine);
+  r.ReadRange("photo_views", &photo_views, 1, 16);
+  r.ReadRange("photo_max_baseline_deg", &photo_max_baseline_deg, 0.5, 90.0);
+  r.ReadRange("photo_window_radius_px", &photo_window_radius_px, 1, 10);
+  r.ReadRange("photo_search_fraction", &photo_search_fraction, 1e-4, 0.5);
+  r.ReadRange("photo_search_steps", &photo_search_steps, 1, 100);
+  r.ReadRange("photo_min_texture", &photo_min_texture, 0.0, 255.0);
+  r.ReadRange("photo_min_score", &photo_min_score, -1.0, 1.0);
+  r.ReadRange("photo_color_sigma", &photo_color_sigma, 0.0, 1000.0);
   r.ReadRange("min_consistent_views", &min_consistent_views, 0, 100);
   r.ReadRange("depth_tolerance", &depth_tolerance, 1e-5, 1.0);
   r.ReadRange("min_height_m", &min_height_m, 0.0, 1.0);
@@ -61,6 +70,15 @@ nlohmann::json ProxyOptions::ToJson() const {
           {"uniqueness_ratio", uniqueness_ratio},
           {"speckle_window_px", speckle_window_px},
           {"max_left_right_difference_px", max_left_right_difference_px},
+          {"photo_refine", photo_refine},
+          {"photo_views", photo_views},
+          {"photo_max_baseline_deg", photo_max_baseline_deg},
+          {"photo_window_radius_px", photo_window_radius_px},
+          {"photo_search_fraction", photo_search_fraction},
+          {"photo_search_steps", photo_search_steps},
+          {"photo_min_texture", photo_min_texture},
+          {"photo_min_score", photo_min_score},
+          {"photo_color_sigma", photo_color_sigma},
           {"min_consistent_views", min_consistent_views},
           {"depth_tolerance", depth_tolerance},
           {"min_height_m", min_height_m},

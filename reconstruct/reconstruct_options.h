@@ -33,6 +33,24 @@ struct ProxyOptions {
   int uniqueness_ratio = 10;
   int speckle_window_px = 50;
   double max_left_right_difference_px = 1.0;  // left-right consistency of the disparities
+  // Multi-view photometric refinement of each depth map (photo_refine.h):
+  // every depth pixel is searched again within +/- photo_search_fraction of
+  // its depth (2 x photo_search_steps + 1 planes) for the best mean ZNCC of
+  // a (2r+1)^2 window with the better half of up to photo_views frames
+  // within photo_max_baseline_deg; pixels with a window contrast below
+  // photo_min_texture grey levels (of 255) keep their stereo depth, pixels
+  // whose best plane is at the search edge or scores below photo_min_score
+  // are dropped. photo_color_sigma (grey levels, 0 = plain ZNCC) weighs
+  // window pixels by their likeness to the centre (bilateral).
+  bool photo_refine = true;
+  int photo_views = 4;
+  double photo_max_baseline_deg = 30.0;
+  int photo_window_radius_px = 3;
+  double photo_search_fraction = 0.02;
+  int photo_search_steps = 10;
+  double photo_min_texture = 2.0;
+  double photo_min_score = 0.2;
+  double photo_color_sigma = 20.0;
   // Multi-view geometric consistency: a depth pixel survives when at least
   // min_consistent_views other frames see the point at the same depth
   // (relative difference below depth_tolerance).
