@@ -213,8 +213,8 @@ render::TriangleMesh CleanupMesh(const render::TriangleMesh& input, const Cleanu
   // 4. Holes (the crop opens the object where it touched the board).
   report->holes_filled = FillHoles(mesh, options.fair_holes);
   ClampAbovePlane(mesh, options.crop_margin_m);
-  // Clamping flattens faces that reached below the plane; CGAL 5.5's
-  // tangential relaxation (in the remeshing below) crashes on degenerate faces.
+  // Clamping flattens faces that reached below the plane; the remeshing and
+  // its relaxation below must not start from degenerate faces.
   PMP::remove_degenerate_faces(mesh);
   mesh.collect_garbage();
   PMP::duplicate_non_manifold_vertices(mesh);

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include <Eigen/Dense>
+#include <opencv2/core/eigen.hpp>
 #include <tbb/parallel_for.h>
 
 #include "core/error.h"
@@ -29,7 +30,7 @@ namespace {
 
 Eigen::Matrix3d CameraMatrix(const Intrinsics& k) {
   Eigen::Matrix3d m;
-  m << k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1;
+  cv::cv2eigen(k.CameraMatrix(), m);
   return m;
 }
 

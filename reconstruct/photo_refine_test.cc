@@ -17,24 +17,15 @@ namespace {
 const Eigen::Vector3d kCentre(0.0, 0.0, 0.05);
 constexpr double kRadius = 0.04;
 
-Camera LookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
-  const Eigen::Vector3d forward = (target - eye).normalized();
-  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
-  const Eigen::Vector3d down = forward.cross(right);
-  Eigen::Matrix3d rotation;
-  rotation.row(0) = right;
-  rotation.row(1) = down;
-  rotation.row(2) = forward;
+// A 240x180 pinhole camera at `eye` looking at `target`, image up = +Z.
+Camera RingCamera(const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
   Intrinsics k;
   k.width = 240;
   k.height = 180;
   k.fx = k.fy = 330;
   k.cx = 120;
   k.cy = 90;
-  Rigid3 pose;
-  pose.rotation = Eigen::Quaterniond(rotation);
-  pose.translation = -(rotation * eye);
-  return Camera(k, pose);
+  return Camera(k, LookAt(eye, target, Eigen::Vector3d::UnitZ()));
 }
 
 // Band-limited texture (periods 4-12 mm: several pixels at 0.3 m).
@@ -103,7 +94,7 @@ Scene MakeScene(bool flat_sphere = false) {
     const Eigen::Vector3d eye = kCentre + distance * Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
                                                                      std::cos(elevation) * std::sin(azimuth),
                                                                      std::sin(elevation));
-    scene.views.push_back(Render(LookAt(eye, kCentre), 0.8 + 0.05 * i, 0.05 - 0.02 * i, flat_sphere));
+    scene.views.push_back(Render(RingCamera(eye, kCentre), 0.8 + 0.05 * i, 0.05 - 0.02 * i, flat_sphere));
   }
   scene.box.min = Eigen::Vector3d(-0.1, -0.1, 0.01);
   scene.box.max = Eigen::Vector3d(0.1, 0.1, 0.2);

@@ -17,24 +17,15 @@ namespace {
 const Eigen::Vector3d kCentre(0.01, -0.02, 0.05);
 constexpr double kRadius = 0.03;
 
-Camera LookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
-  const Eigen::Vector3d forward = (target - eye).normalized();
-  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
-  const Eigen::Vector3d down = forward.cross(right);
-  Eigen::Matrix3d cam_from_world_rotation;
-  cam_from_world_rotation.row(0) = right;
-  cam_from_world_rotation.row(1) = down;
-  cam_from_world_rotation.row(2) = forward;
+// A 320x240 pinhole camera at `eye` looking at `target`, image up = +Z.
+Camera RingCamera(const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
   Intrinsics k;
   k.width = 320;
   k.height = 240;
   k.fx = k.fy = 400;
   k.cx = 160;
   k.cy = 120;
-  Rigid3 pose;
-  pose.rotation = Eigen::Quaterniond(cam_from_world_rotation);
-  pose.translation = -(cam_from_world_rotation * eye);
-  return Camera(k, pose);
+  return Camera(k, LookAt(eye, target, Eigen::Vector3d::UnitZ()));
 }
 
 // Depth (along the optical axis) of the sphere, else of the table (z = 0,
@@ -74,7 +65,7 @@ DepthEvidence RingOfViews(double noise_m) {
                                                                   std::cos(elevation) * std::sin(azimuth),
                                                                   std::sin(elevation));
       evidence.names.push_back("view_" + std::to_string(evidence.cameras.size()));
-      evidence.cameras.push_back(LookAt(eye, kCentre));
+      evidence.cameras.push_back(RingCamera(eye, kCentre));
       evidence.depths.push_back(RenderDepth(evidence.cameras.back(), noise_m, &rng));
     }
   }
