@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <memory>
 
@@ -15,6 +16,7 @@
 #include "core/progress.h"
 #include "reconstruct/depth_cache.h"
 #include "reconstruct/depth_fusion.h"
+#include "reconstruct/depth_hull.h"
 #include "reconstruct/photo_refine.h"
 #include "reconstruct/point_surface.h"
 #include "reconstruct/stereo_depth.h"
@@ -262,6 +264,14 @@ render::TriangleMesh BuildProxyFromImages(const fs::path& workspace, const Camer
     method = "sparse";
   }
   (*report)["method"] = method;
+  // The multi-view consistent depth maps: the hull carves with them and
+  // the refinement after cleanup trusts them.
+  std::vector<cv::Mat> consistent;
+  if (!dense.depths.empty() && (evidence || (method == "dense" && options.hull_points))) {
+    auto timer = record->Time("proxy_consistent_depth_maps");
+    Progress progress("consistent depths", static_cast<int64_t>(frames.size()));
+    consistent = ConsistentDepthMaps(camera_list, dense.depths, options, [&] { progress.Advance(); });
+  }
   render::TriangleMesh mesh;
   if (method == "dense") {
     std::vector<OrientedPoint> oriented;
@@ -272,6 +282,28 @@ render::TriangleMesh BuildProxyFromImages(const fs::path& workspace, const Camer
     }
     (*report)["oriented_points"] = oriented.size();
     (*report)["point_spacing_m"] = spacing;
+    if (options.hull_points) {
+      auto timer = record->Time("proxy_depth_hull");
+      const auto start = std::chrono::steady_clock::now();
+      const double voxel = options.hull_voxel_m > 0 ? options.hull_voxel_m : spacing;
+      const VoxelHull hull = CarveDepthHull(camera_list, consistent, oriented, crop, options, voxel);
+      DepthHullReport hull_report;
+      hull_report.voxels = hull.size;
+      hull_report.voxel_m = hull.voxel_m;
+      hull_report.components = hull.components;
+      hull_report.occupied_voxels = static_cast<int>(std::count(hull.occupied.begin(), hull.occupied.end(), 1));
+      const std::vector<OrientedPoint> added =
+          HullSurfacePoints(hull, oriented, options.hull_point_gap * spacing, &hull_report.surface_points);
+      hull_report.added_points = static_cast<int>(added.size());
+      WriteOrientedPly((work_dir / "hull_points.ply").string(), added);
+      oriented.insert(oriented.end(), added.begin(), added.end());
+      hull_report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      (*report)["depth_hull"] = hull_report.ToJson();
+      spdlog::info("depth hull: {}x{}x{} voxels of {:.2f} mm, {} occupied; {} of its {} surface samples added "
+                   "where no fused point is within {:.1f} mm",
+                   hull.size.x(), hull.size.y(), hull.size.z(), 1e3 * hull.voxel_m, hull_report.occupied_voxels,
+                   hull_report.added_points, hull_report.surface_points, 1e3 * options.hull_point_gap * spacing);
+    }
     const std::string points_ply = (work_dir / "fused_points.ply").string();
     WriteOrientedPly(points_ply, oriented);
     auto timer = record->Time("proxy_poisson");
@@ -303,13 +335,11 @@ render::TriangleMesh BuildProxyFromImages(const fs::path& workspace, const Camer
     RELIT_REQUIRE(!mesh.triangles.empty(), "reconstruct: the advancing-front surface over ", positions.size(),
                   " points is empty; ", advice);
   }
-  if (evidence && !dense.depths.empty()) {
+  if (evidence && !consistent.empty()) {
     *evidence = DepthEvidence{};
     for (const CalibratedFrame* f : frames) evidence->names.push_back(f->name);
     evidence->cameras = camera_list;
-    auto timer = record->Time("proxy_consistent_depth_maps");
-    Progress progress("consistent depths", static_cast<int64_t>(frames.size()));
-    evidence->depths = ConsistentDepthMaps(camera_list, dense.depths, options, [&] { progress.Advance(); });
+    evidence->depths = std::move(consistent);
   }
   (*report)["raw_faces"] = mesh.triangles.size();
   spdlog::info("proxy: {} surface with {} faces", method, mesh.triangles.size());

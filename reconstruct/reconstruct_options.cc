@@ -30,6 +30,14 @@ void ProxyOptions::Read(OptionsReader& r) {
   r.ReadRange("min_cluster_fraction", &min_cluster_fraction, 0.0, 1.0);
   r.ReadRange("point_spacing_m", &point_spacing_m, 0.0, 1.0);
   r.ReadRange("normal_neighbours", &normal_neighbours, 4, 200);
+  r.Read("hull_points", &hull_points);
+  r.ReadRange("hull_voxel_m", &hull_voxel_m, 0.0, 1.0);
+  r.ReadRange("hull_min_free_views", &hull_min_free_views, 1, 1000);
+  r.ReadRange("hull_free_tolerance", &hull_free_tolerance, 0.0, 1.0);
+  r.ReadRange("hull_margin_fraction", &hull_margin_fraction, 0.0, 10.0);
+  r.ReadRange("hull_point_gap", &hull_point_gap, 0.0, 100.0);
+  r.ReadRange("hull_contact_height_m", &hull_contact_height_m, 0.0, 1.0);
+  r.ReadRange("hull_contact_radius_m", &hull_contact_radius_m, 0.0, 1.0);
   r.ReadRange("poisson_depth", &poisson_depth, 5, 14);
   r.ReadRange("poisson_trim", &poisson_trim, 0.0, 20.0);
   r.Read("colmap", &colmap);
@@ -85,6 +93,14 @@ nlohmann::json ProxyOptions::ToJson() const {
           {"min_cluster_fraction", min_cluster_fraction},
           {"point_spacing_m", point_spacing_m},
           {"normal_neighbours", normal_neighbours},
+          {"hull_points", hull_points},
+          {"hull_voxel_m", hull_voxel_m},
+          {"hull_min_free_views", hull_min_free_views},
+          {"hull_free_tolerance", hull_free_tolerance},
+          {"hull_margin_fraction", hull_margin_fraction},
+          {"hull_point_gap", hull_point_gap},
+          {"hull_contact_height_m", hull_contact_height_m},
+          {"hull_contact_radius_m", hull_contact_radius_m},
           {"poisson_depth", poisson_depth},
           {"poisson_trim", poisson_trim},
           {"colmap", colmap},

@@ -60,6 +60,23 @@ struct ProxyOptions {
   double min_cluster_fraction = 0.2;    // point clusters smaller than this x the largest are dropped
   double point_spacing_m = 0;           // grid for the fused points (0 = 1.5 x the median pixel footprint)
   int normal_neighbours = 18;           // CGAL jet normal fit
+  // Depth-map hull (depth_hull.h): a voxel (hull_voxel_m, 0 = the point
+  // spacing) that hull_min_free_views depth maps see through by more than
+  // hull_free_tolerance of its depth is carved; the grid is the fused
+  // points' bounds widened by hull_margin_fraction of their extent (at
+  // least 2 cm). Samples of the hull's surface farther than hull_point_gap
+  // x the point spacing from every fused point join Poisson's input.
+  bool hull_points = true;
+  double hull_voxel_m = 0;
+  int hull_min_free_views = 3;
+  double hull_free_tolerance = 0.01;
+  double hull_margin_fraction = 0.25;
+  double hull_point_gap = 2.0;
+  // Below the object: within hull_contact_height_m above min_height_m, the
+  // hull keeps only what lies within hull_contact_radius_m (horizontally)
+  // of a fused point that low (0 = keep the whole band).
+  double hull_contact_height_m = 0.005;
+  double hull_contact_radius_m = 0.005;
   // COLMAP poisson_mesher (screened Poisson, Kazhdan & Hoppe 2013): octree
   // depth and density trim (drop surface supported by few points).
   int poisson_depth = 8;
