@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
+
+#include <opencv2/imgproc.hpp>
 
 #include <tbb/parallel_for.h>
 
@@ -10,6 +13,16 @@ namespace relit::reconstruct {
 
 nlohmann::json FrameFusionStats::ToJson() const {
   return {{"depth_px", depth_px}, {"in_crop_px", in_crop_px}, {"consistent_px", consistent_px}};
+}
+
+cv::Mat NearestDepth3x3(const cv::Mat& depth) {
+  constexpr float kUnknown = std::numeric_limits<float>::max();
+  cv::Mat filled = depth.clone();
+  filled.setTo(kUnknown, depth <= 0);
+  cv::Mat nearest;
+  cv::erode(filled, nearest, cv::Mat::ones(3, 3, CV_8U), cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  nearest.setTo(0, nearest >= kUnknown);
+  return nearest;
 }
 
 bool InCrop(const Eigen::Vector3d& p, const CropRegion& crop, double min_height_m) {

@@ -47,6 +47,11 @@ std::vector<FusedPoint> FuseDepthMaps(const std::vector<Camera>& cameras, const 
 std::vector<cv::Mat> ConsistentDepthMaps(const std::vector<Camera>& cameras, const std::vector<cv::Mat>& depths,
                                          const ProxyOptions& options, const std::function<void()>& on_frame_done = {});
 
+// The nearest valid depth of each pixel's 3x3 neighbourhood (0 where none):
+// free-space tests use it so that a projection rounded onto an object's rim
+// does not see through the object.
+cv::Mat NearestDepth3x3(const cv::Mat& depth);
+
 // True for a world point inside the crop cylinder and above min_height_m.
 bool InCrop(const Eigen::Vector3d& p, const CropRegion& crop, double min_height_m);
 

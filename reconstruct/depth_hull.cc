@@ -11,6 +11,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/error.h"
+#include "reconstruct/depth_fusion.h"
 
 namespace relit::reconstruct {
 
@@ -36,19 +37,6 @@ bool VoxelHull::Contains(const Eigen::Vector3d& p) const {
 }
 
 namespace {
-
-// The nearest valid depth of each 3x3 neighbourhood: a ray carves only when
-// even the nearest surface around its pixel lies behind the voxel, so the
-// rounding of a projection onto an object's rim does not carve the object.
-cv::Mat NearestDepth(const cv::Mat& depth) {
-  constexpr float kUnknown = std::numeric_limits<float>::max();
-  cv::Mat filled = depth.clone();
-  filled.setTo(kUnknown, depth <= 0);
-  cv::Mat nearest;
-  cv::erode(filled, nearest, cv::Mat::ones(3, 3, CV_8U), cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
-  nearest.setTo(0, nearest >= kUnknown);
-  return nearest;
-}
 
 double Percentile(std::vector<double> values, double q) {
   const size_t k = std::min(values.size() - 1, static_cast<size_t>(q * (values.size() - 1)));
@@ -137,8 +125,10 @@ VoxelHull CarveDepthHull(const std::vector<Camera>& cameras, const std::vector<c
   const Grid grid{hull.size};
   const size_t count = static_cast<size_t>(hull.size.prod());
 
+  // A ray carves only when even the nearest surface around its pixel lies
+  // behind the voxel.
   std::vector<cv::Mat> nearest(depths.size());
-  tbb::parallel_for(size_t(0), depths.size(), [&](size_t v) { nearest[v] = NearestDepth(depths[v]); });
+  tbb::parallel_for(size_t(0), depths.size(), [&](size_t v) { nearest[v] = NearestDepth3x3(depths[v]); });
   // The whole voxel, not only its centre, must lie in front of the seen surface.
   const double half_diagonal = 0.87 * hull.voxel_m;
   std::vector<char> carved(count, 0);
@@ -241,8 +231,9 @@ std::vector<OrientedPoint> HullSurfacePoints(const VoxelHull& hull, const std::v
           float sum = 0;
           for (int t = -2; t <= 2; ++t) {
             Eigen::Vector3i q(i, j, k);
+            // Clamped: below the floor the object continues (it stands
+            // on the table), so the floor is not a crossing.
             q[axis] = std::clamp(q[axis] + t, 0, hull.size[axis] - 1);
-            // Below the floor the object continues (it stands on the table).
             sum += kKernel[t + 2] * field[grid.Index(q.x(), q.y(), q.z())];
           }
           blurred[grid.Index(i, j, k)] = sum;

@@ -184,6 +184,33 @@ std::vector<FusedPoint> SparsePoints(const fs::path& workspace, const std::vecto
   return points;
 }
 
+// Samples of the depth-map hull's surface where no point of *points is
+// near (depth_hull.h), appended to *points and written to hull_points.ply.
+void AddHullPoints(const std::vector<Camera>& cameras, const std::vector<cv::Mat>& consistent_depths,
+                   const CropRegion& crop, const ProxyOptions& options, double spacing, const fs::path& work_dir,
+                   RunRecord* record, nlohmann::json* report, std::vector<OrientedPoint>* points) {
+  auto timer = record->Time("proxy_depth_hull");
+  const auto start = std::chrono::steady_clock::now();
+  const double voxel = options.hull_voxel_m > 0 ? options.hull_voxel_m : spacing;
+  const VoxelHull hull = CarveDepthHull(cameras, consistent_depths, *points, crop, options, voxel);
+  DepthHullReport hull_report;
+  hull_report.voxels = hull.size;
+  hull_report.voxel_m = hull.voxel_m;
+  hull_report.components = hull.components;
+  hull_report.occupied_voxels = static_cast<int>(std::count(hull.occupied.begin(), hull.occupied.end(), 1));
+  const std::vector<OrientedPoint> added =
+      HullSurfacePoints(hull, *points, options.hull_point_gap * spacing, &hull_report.surface_points);
+  hull_report.added_points = static_cast<int>(added.size());
+  WriteOrientedPly((work_dir / "hull_points.ply").string(), added);
+  points->insert(points->end(), added.begin(), added.end());
+  hull_report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  (*report)["depth_hull"] = hull_report.ToJson();
+  spdlog::info("depth hull: {}x{}x{} voxels of {:.2f} mm, {} occupied; {} of its {} surface samples added "
+               "where no point is within {:.1f} mm",
+               hull.size.x(), hull.size.y(), hull.size.z(), 1e3 * hull.voxel_m, hull_report.occupied_voxels,
+               hull_report.added_points, hull_report.surface_points, 1e3 * options.hull_point_gap * spacing);
+}
+
 }  // namespace
 
 std::vector<const CalibratedFrame*> GeometryFrames(const CamerasFile& cameras, std::string* source) {
@@ -267,7 +294,7 @@ render::TriangleMesh BuildProxyFromImages(const fs::path& workspace, const Camer
   // The multi-view consistent depth maps: the hull carves with them and
   // the refinement after cleanup trusts them.
   std::vector<cv::Mat> consistent;
-  if (!dense.depths.empty() && (evidence || (method == "dense" && options.hull_points))) {
+  if (!dense.depths.empty() && (evidence || options.hull_points)) {
     auto timer = record->Time("proxy_consistent_depth_maps");
     Progress progress("consistent depths", static_cast<int64_t>(frames.size()));
     consistent = ConsistentDepthMaps(camera_list, dense.depths, options, [&] { progress.Advance(); });
@@ -283,26 +310,7 @@ render::TriangleMesh BuildProxyFromImages(const fs::path& workspace, const Camer
     (*report)["oriented_points"] = oriented.size();
     (*report)["point_spacing_m"] = spacing;
     if (options.hull_points) {
-      auto timer = record->Time("proxy_depth_hull");
-      const auto start = std::chrono::steady_clock::now();
-      const double voxel = options.hull_voxel_m > 0 ? options.hull_voxel_m : spacing;
-      const VoxelHull hull = CarveDepthHull(camera_list, consistent, oriented, crop, options, voxel);
-      DepthHullReport hull_report;
-      hull_report.voxels = hull.size;
-      hull_report.voxel_m = hull.voxel_m;
-      hull_report.components = hull.components;
-      hull_report.occupied_voxels = static_cast<int>(std::count(hull.occupied.begin(), hull.occupied.end(), 1));
-      const std::vector<OrientedPoint> added =
-          HullSurfacePoints(hull, oriented, options.hull_point_gap * spacing, &hull_report.surface_points);
-      hull_report.added_points = static_cast<int>(added.size());
-      WriteOrientedPly((work_dir / "hull_points.ply").string(), added);
-      oriented.insert(oriented.end(), added.begin(), added.end());
-      hull_report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      (*report)["depth_hull"] = hull_report.ToJson();
-      spdlog::info("depth hull: {}x{}x{} voxels of {:.2f} mm, {} occupied; {} of its {} surface samples added "
-                   "where no fused point is within {:.1f} mm",
-                   hull.size.x(), hull.size.y(), hull.size.z(), 1e3 * hull.voxel_m, hull_report.occupied_voxels,
-                   hull_report.added_points, hull_report.surface_points, 1e3 * options.hull_point_gap * spacing);
+      AddHullPoints(camera_list, consistent, crop, options, spacing, work_dir, record, report, &oriented);
     }
     const std::string points_ply = (work_dir / "fused_points.ply").string();
     WriteOrientedPly(points_ply, oriented);
@@ -320,6 +328,11 @@ render::TriangleMesh BuildProxyFromImages(const fs::path& workspace, const Camer
       // Sparse COLMAP points are far apart: outliers are judged by their own spacing.
       cleaned = OrientedPointCloud(input, spacing > 0 ? spacing : 1e-4, options.normal_neighbours, 0.0,
                                    options.min_cluster_fraction);
+    }
+    // Over depth points the hull closes what the stereo missed here too
+    // (the advancing front otherwise breaks up around those gaps).
+    if (options.hull_points && !consistent.empty() && cleaned.size() >= 10) {
+      AddHullPoints(camera_list, consistent, crop, options, spacing, work_dir, record, report, &cleaned);
     }
     (*report)["sparse_points"] = cleaned.size();
     RELIT_REQUIRE(cleaned.size() >= 100, "reconstruct: too few points for a surface (", cleaned.size(),

@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/progress.h"
+#include "reconstruct/depth_fusion.h"
 #include "reconstruct/mesh_cleanup.h"
 
 namespace relit::reconstruct {
@@ -34,16 +35,6 @@ struct ViewData {
   const cv::Mat* depth = nullptr;
   cv::Mat nearest_depth;
 };
-
-cv::Mat NearestDepth3x3(const cv::Mat& depth) {
-  constexpr float kUnknown = std::numeric_limits<float>::max();
-  cv::Mat filled = depth.clone();
-  filled.setTo(kUnknown, depth <= 0);
-  cv::Mat nearest;
-  cv::erode(filled, nearest, cv::Mat::ones(3, 3, CV_8U), cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
-  nearest.setTo(0, nearest >= kUnknown);
-  return nearest;
-}
 
 VertexEvidence Judge(const Eigen::Vector3d& p, const Eigen::Vector3d& normal, const std::vector<ViewData>& views,
                      const RefineOptions& options) {
