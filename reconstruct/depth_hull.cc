@@ -22,6 +22,7 @@ nlohmann::json DepthHullReport::ToJson() const {
           {"components", components},
           {"surface_points", surface_points},
           {"added_points", added_points},
+          {"open_border_fraction", open_border_fraction},
           {"seconds", seconds}};
 }
 
@@ -212,6 +213,18 @@ VoxelHull CarveDepthHull(const std::vector<Camera>& cameras, const std::vector<c
   for (size_t v = 0; v < count; ++v) {
     hull.occupied[v] = label[v] == keep || (outside[v] >= 0 && !touches_border[outside[v]]) ? 1 : 0;
   }
+  int border_voxels = 0, open_voxels = 0;
+  for (int k = 0; k < hull.size.z(); ++k) {
+    for (int j = 0; j < hull.size.y(); ++j) {
+      for (int i = 0; i < hull.size.x(); ++i) {
+        if (i == 0 || j == 0 || i == hull.size.x() - 1 || j == hull.size.y() - 1 || k == hull.size.z() - 1) {
+          ++border_voxels;
+          open_voxels += hull.occupied[grid.Index(i, j, k)];
+        }
+      }
+    }
+  }
+  hull.open_border_fraction = border_voxels ? static_cast<double>(open_voxels) / border_voxels : 0.0;
   return hull;
 }
 

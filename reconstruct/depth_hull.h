@@ -35,6 +35,7 @@ struct DepthHullReport {
   int components = 0;           // regions of uncarved voxels
   int surface_points = 0;       // samples of the hull's surface
   int added_points = 0;         // ... farther than the gap from every fused point
+  double open_border_fraction = 0;
   double seconds = 0;
   nlohmann::json ToJson() const;
 };
@@ -47,6 +48,10 @@ struct VoxelHull {
   Eigen::Vector3i size = Eigen::Vector3i::Zero();
   std::vector<char> occupied;  // x fastest
   int components = 0;          // connected regions of uncarved voxels before keeping one
+  // Share of the grid's side and top faces the kept region reaches: near 0
+  // when the depth maps carve all around the object; large when they leave
+  // it open (a background without depth, too few views).
+  double open_border_fraction = 0;
   bool At(int i, int j, int k) const;
   bool Contains(const Eigen::Vector3d& p) const;  // false outside the grid
 };

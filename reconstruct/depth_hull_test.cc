@@ -51,7 +51,8 @@ double HitCylinder(const Eigen::Vector3d& origin, const Eigen::Vector3d& ray) {
 
 // Depth along the optical axis of the cylinder, else of the table (z = 0,
 // 0.3 m square), else unknown.
-cv::Mat RenderDepth(const Camera& camera) {
+cv::Mat RenderDepth(const Camera& camera, bool table) {
+  // Without the table the cylinder's top half is black too (no depth).
   cv::Mat depth(camera.intrinsics().height, camera.intrinsics().width, CV_32F, cv::Scalar(0));
   const Eigen::Vector3d origin = camera.Center();
   const Eigen::Matrix3d world_from_cam = camera.world_from_cam().rotation.toRotationMatrix();
@@ -60,7 +61,8 @@ cv::Mat RenderDepth(const Camera& camera) {
       const Eigen::Vector3d ray_cam = camera.PixelToCameraRay(Eigen::Vector2d(x, y));
       const Eigen::Vector3d ray = world_from_cam * ray_cam;
       double t = HitCylinder(origin, ray);
-      if (t <= 0 && ray.z() < 0) {
+      if (!table && t > 0 && origin.z() + t * ray.z() > kHeight / 2) t = -1;
+      if (t <= 0 && ray.z() < 0 && table) {
         const double t_table = -origin.z() / ray.z();
         const Eigen::Vector3d hit = origin + t_table * ray;
         if (std::abs(hit.x()) < 0.15 && std::abs(hit.y()) < 0.15) t = t_table;
@@ -76,7 +78,7 @@ struct Views {
   std::vector<cv::Mat> depths;
 };
 
-Views RingOfViews() {
+Views RingOfViews(bool table = true) {
   Views views;
   const Eigen::Vector3d target(kAxis.x(), kAxis.y(), kHeight / 2);
   for (double elevation_deg : {20.0, 45.0}) {
@@ -87,7 +89,7 @@ Views RingOfViews() {
                                                                  std::cos(elevation) * std::sin(azimuth),
                                                                  std::sin(elevation));
       views.cameras.push_back(RingCamera(eye, target));
-      views.depths.push_back(RenderDepth(views.cameras.back()));
+      views.depths.push_back(RenderDepth(views.cameras.back(), table));
     }
   }
   return views;
@@ -248,6 +250,20 @@ TEST(DepthHull, TheBandUnderTheObjectKeepsTheContactRegionAndWhatTheObjectEnclos
   EXPECT_FALSE(open.Contains(minus_x_low));
   EXPECT_FALSE(open.Contains(centre_low));
   EXPECT_TRUE(open.Contains(Eigen::Vector3d(kAxis.x() - 0.025, kAxis.y(), 0.02)));  // above the band
+}
+
+TEST(DepthHull, WithoutDepthBehindTheObjectTheHullStaysOpen) {
+  const ProxyOptions options = HullOptions();
+  const VoxelHull closed = CarveDepthHull(RingOfViews().cameras, RingOfViews().depths, UpperPoints(), Crop(),
+                                          options, 0.002);
+  EXPECT_LT(closed.open_border_fraction, 0.001);
+  // Only the lower half of the object has depth (the table and the top are
+  // black, say): nothing carves the space above it, so the hull reaches the
+  // grid's top and the stage does not use it.
+  const Views no_table = RingOfViews(false);
+  const VoxelHull open = CarveDepthHull(no_table.cameras, no_table.depths, UpperPoints(), Crop(), options, 0.002);
+  EXPECT_GT(open.open_border_fraction, 0.5);
+  EXPECT_GT(open.open_border_fraction, options.hull_max_open_border);
 }
 
 TEST(DepthHull, BadInputIsAnError) {

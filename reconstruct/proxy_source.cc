@@ -193,10 +193,21 @@ void AddHullPoints(const std::vector<Camera>& cameras, const std::vector<cv::Mat
   const auto start = std::chrono::steady_clock::now();
   const double voxel = options.hull_voxel_m > 0 ? options.hull_voxel_m : spacing;
   const VoxelHull hull = CarveDepthHull(cameras, consistent_depths, *points, crop, options, voxel);
+  if (hull.open_border_fraction > options.hull_max_open_border) {
+    // Not carved all around (a background without depth, too few views):
+    // the hull's surface would be the grid's, not the object's.
+    (*report)["depth_hull"] = {{"skipped", true}, {"open_border_fraction", hull.open_border_fraction}};
+    spdlog::warn("depth hull: skipped, the depth maps leave {:.1f}% of the grid's sides and top uncarved "
+                 "(proxy.hull_max_open_border {:.1f}%); the background behind the object has too little depth "
+                 "(or too few frames see past it)",
+                 100 * hull.open_border_fraction, 100 * options.hull_max_open_border);
+    return;
+  }
   DepthHullReport hull_report;
   hull_report.voxels = hull.size;
   hull_report.voxel_m = hull.voxel_m;
   hull_report.components = hull.components;
+  hull_report.open_border_fraction = hull.open_border_fraction;
   hull_report.occupied_voxels = static_cast<int>(std::count(hull.occupied.begin(), hull.occupied.end(), 1));
   const std::vector<OrientedPoint> added =
       HullSurfacePoints(hull, *points, options.hull_point_gap * spacing, &hull_report.surface_points);

@@ -38,6 +38,7 @@ void ProxyOptions::Read(OptionsReader& r) {
   r.ReadRange("hull_point_gap", &hull_point_gap, 0.0, 100.0);
   r.ReadRange("hull_contact_height_m", &hull_contact_height_m, 0.0, 1.0);
   r.ReadRange("hull_contact_radius_m", &hull_contact_radius_m, 0.0, 1.0);
+  r.ReadRange("hull_max_open_border", &hull_max_open_border, 0.0, 1.0);
   r.ReadRange("poisson_depth", &poisson_depth, 5, 14);
   r.ReadRange("poisson_trim", &poisson_trim, 0.0, 20.0);
   r.Read("colmap", &colmap);
@@ -101,6 +102,7 @@ nlohmann::json ProxyOptions::ToJson() const {
           {"hull_point_gap", hull_point_gap},
           {"hull_contact_height_m", hull_contact_height_m},
           {"hull_contact_radius_m", hull_contact_radius_m},
+          {"hull_max_open_border", hull_max_open_border},
           {"poisson_depth", poisson_depth},
           {"poisson_trim", poisson_trim},
           {"colmap", colmap},

@@ -77,6 +77,9 @@ struct ProxyOptions {
   // of a fused point that low (0 = keep the whole band).
   double hull_contact_height_m = 0.005;
   double hull_contact_radius_m = 0.005;
+  // A hull that reaches more than this share of the grid's sides and top
+  // was not carved all around (no depth behind the object): not used.
+  double hull_max_open_border = 0.01;
   // COLMAP poisson_mesher (screened Poisson, Kazhdan & Hoppe 2013): octree
   // depth and density trim (drop surface supported by few points).
   int poisson_depth = 8;
