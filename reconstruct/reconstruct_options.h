@@ -147,7 +147,7 @@ struct AtlasOptions {
   // while the union is a disc whose LSCM map has no flip or overlap and an
   // L2 stretch <= merge_max_stretch.
   bool merge_charts = true;
-  double merge_max_stretch = 1.05;
+  double merge_max_stretch = 1.02;
   bool write_preview = true;
   void Read(OptionsReader& reader);
   void Check() const;
