@@ -77,9 +77,11 @@ cv::Mat SolveLevel(const cv::Mat& image, const cv::Mat& trimap, const cv::Mat& p
       }
     }
   }
-  // Weak prior towards the silhouette; also makes L_UU definite for unknown
+  // Prior towards the silhouette; it also makes L_UU definite for unknown
   // regions that no window connects to a known pixel (e.g. at the border).
-  const double lambda = std::max(options.prior_weight, 1e-9);
+  // Without a silhouette only that regularisation is left (towards 1/2).
+  constexpr double kRegularisation = 1e-5;
+  const double lambda = prior.empty() ? kRegularisation : std::max(options.prior_weight, 1e-9);
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
       const int row = index[static_cast<size_t>(y) * width + x];

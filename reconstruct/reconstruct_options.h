@@ -193,7 +193,10 @@ struct TrimapOptions {
 struct MattingOptions {
   int window_radius_px = 1;             // Levin et al.: 3x3 windows
   double epsilon = 1e-7;                // colour-line regulariser (Levin et al.'s value)
-  double prior_weight = 1e-5;           // weak pull to the silhouette (keeps regions without known pixels solvable)
+  // Pull towards the proxy silhouette where colour says little (it also
+  // keeps regions without known pixels solvable); 1e-5 suited proxies 5-7
+  // mm off, 1e-2 the hull's (docs/reconstruct.md).
+  double prior_weight = 1e-2;
   // Frames above this size are solved coarse-to-fine: the half-resolution
   // matte fixes the confidently opaque/transparent unknown pixels first.
   double multiscale_min_megapixels = 1.5;
