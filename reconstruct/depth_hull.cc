@@ -26,9 +26,25 @@ nlohmann::json DepthHullReport::ToJson() const {
           {"seconds", seconds}};
 }
 
+namespace {
+
+struct Grid {
+  Eigen::Vector3i size;
+  size_t Index(int i, int j, int k) const { return (static_cast<size_t>(k) * size.y() + j) * size.x() + i; }
+  bool Inside(int i, int j, int k) const {
+    return i >= 0 && j >= 0 && k >= 0 && i < size.x() && j < size.y() && k < size.z();
+  }
+  // On the grid's sides or top; not the floor, which the table closes.
+  bool OnOpenBorder(int i, int j, int k) const {
+    return i == 0 || j == 0 || i == size.x() - 1 || j == size.y() - 1 || k == size.z() - 1;
+  }
+};
+
+}  // namespace
+
 bool VoxelHull::At(int i, int j, int k) const {
-  if (i < 0 || j < 0 || k < 0 || i >= size.x() || j >= size.y() || k >= size.z()) return false;
-  return occupied[(static_cast<size_t>(k) * size.y() + j) * size.x() + i] != 0;
+  const Grid grid{size};
+  return grid.Inside(i, j, k) && occupied[grid.Index(i, j, k)] != 0;
 }
 
 bool VoxelHull::Contains(const Eigen::Vector3d& p) const {
@@ -45,13 +61,6 @@ double Percentile(std::vector<double> values, double q) {
   return values[k];
 }
 
-struct Grid {
-  Eigen::Vector3i size;
-  size_t Index(int i, int j, int k) const { return (static_cast<size_t>(k) * size.y() + j) * size.x() + i; }
-  bool Inside(int i, int j, int k) const {
-    return i >= 0 && j >= 0 && k >= 0 && i < size.x() && j < size.y() && k < size.z();
-  }
-};
 
 constexpr std::array<std::array<int, 3>, 6> kNeighbours = {
     {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}}};
@@ -202,10 +211,9 @@ VoxelHull CarveDepthHull(const std::vector<Camera>& cameras, const std::vector<c
   for (int k = 0; k < hull.size.z(); ++k) {
     for (int j = 0; j < hull.size.y(); ++j) {
       for (int i = 0; i < hull.size.x(); ++i) {
-        // Not the floor: the table closes the grid there.
-        const bool border =
-            i == 0 || j == 0 || i == hull.size.x() - 1 || j == hull.size.y() - 1 || k == hull.size.z() - 1;
-        if (border && outside[grid.Index(i, j, k)] >= 0) touches_border[outside[grid.Index(i, j, k)]] = 1;
+        if (grid.OnOpenBorder(i, j, k) && outside[grid.Index(i, j, k)] >= 0) {
+          touches_border[outside[grid.Index(i, j, k)]] = 1;
+        }
       }
     }
   }
@@ -217,7 +225,7 @@ VoxelHull CarveDepthHull(const std::vector<Camera>& cameras, const std::vector<c
   for (int k = 0; k < hull.size.z(); ++k) {
     for (int j = 0; j < hull.size.y(); ++j) {
       for (int i = 0; i < hull.size.x(); ++i) {
-        if (i == 0 || j == 0 || i == hull.size.x() - 1 || j == hull.size.y() - 1 || k == hull.size.z() - 1) {
+        if (grid.OnOpenBorder(i, j, k)) {
           ++border_voxels;
           open_voxels += hull.occupied[grid.Index(i, j, k)];
         }

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "core/error.h"
+#include "reconstruct/test_workspace.h"
 #include "reconstruct/depth_hull.h"
 
 namespace relit::reconstruct {
@@ -16,16 +17,6 @@ namespace {
 const Eigen::Vector2d kAxis(0.01, -0.02);  // cylinder axis (x, y), metres
 constexpr double kRadius = 0.03;
 constexpr double kHeight = 0.06;
-
-Camera RingCamera(const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
-  Intrinsics k;
-  k.width = 320;
-  k.height = 240;
-  k.fx = k.fy = 400;
-  k.cx = 160;
-  k.cy = 120;
-  return Camera(k, LookAt(eye, target, Eigen::Vector3d::UnitZ()));
-}
 
 // Nearest positive ray parameter on the cylinder (side or top cap), or -1.
 double HitCylinder(const Eigen::Vector3d& origin, const Eigen::Vector3d& ray) {
@@ -88,7 +79,7 @@ Views RingOfViews(bool table = true) {
       const Eigen::Vector3d eye = target + 0.4 * Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
                                                                  std::cos(elevation) * std::sin(azimuth),
                                                                  std::sin(elevation));
-      views.cameras.push_back(RingCamera(eye, target));
+      views.cameras.push_back(testing::CameraLookingAt(eye, target, 320, 240, 400));
       views.depths.push_back(RenderDepth(views.cameras.back(), table));
     }
   }

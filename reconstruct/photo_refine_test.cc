@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "core/error.h"
+#include "reconstruct/test_workspace.h"
 #include "reconstruct/photo_refine.h"
 
 namespace relit::reconstruct {
@@ -16,17 +17,6 @@ namespace {
 
 const Eigen::Vector3d kCentre(0.0, 0.0, 0.05);
 constexpr double kRadius = 0.04;
-
-// A 240x180 pinhole camera at `eye` looking at `target`, image up = +Z.
-Camera RingCamera(const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
-  Intrinsics k;
-  k.width = 240;
-  k.height = 180;
-  k.fx = k.fy = 330;
-  k.cx = 120;
-  k.cy = 90;
-  return Camera(k, LookAt(eye, target, Eigen::Vector3d::UnitZ()));
-}
 
 // Band-limited texture (periods 4-12 mm: several pixels at 0.3 m).
 double Texture(const Eigen::Vector3d& p, bool flat) {
@@ -94,7 +84,8 @@ Scene MakeScene(bool flat_sphere = false) {
     const Eigen::Vector3d eye = kCentre + distance * Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
                                                                      std::cos(elevation) * std::sin(azimuth),
                                                                      std::sin(elevation));
-    scene.views.push_back(Render(RingCamera(eye, kCentre), 0.8 + 0.05 * i, 0.05 - 0.02 * i, flat_sphere));
+    scene.views.push_back(
+        Render(testing::CameraLookingAt(eye, kCentre, 240, 180, 330), 0.8 + 0.05 * i, 0.05 - 0.02 * i, flat_sphere));
   }
   scene.box.min = Eigen::Vector3d(-0.1, -0.1, 0.01);
   scene.box.max = Eigen::Vector3d(0.1, 0.1, 0.2);

@@ -106,6 +106,17 @@ TestWorkspace MakeTestWorkspace(const std::string& dir, int frames, int samples_
   return ws;
 }
 
+Camera CameraLookingAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, int width, int height,
+                       double focal_px) {
+  Intrinsics k;
+  k.width = width;
+  k.height = height;
+  k.fx = k.fy = focal_px;
+  k.cx = 0.5 * width;
+  k.cy = 0.5 * height;
+  return Camera(k, LookAt(eye, target, Eigen::Vector3d::UnitZ()));
+}
+
 double MatteMse(const cv::Mat& a, const cv::Mat& b) {
   cv::Mat d;
   cv::subtract(a, b, d, cv::noArray(), CV_64F);

@@ -32,6 +32,12 @@ struct TestWorkspace {
 TestWorkspace MakeTestWorkspace(const std::string& dir, int frames, int samples_per_pixel = 16,
                                 double rough_offset_m = 0.003, int geometry_frames = 0);
 
+// A pinhole camera (focal length focal_px, principal point at the image
+// centre, no distortion) at `eye` looking at `target`, image up = +Z: the
+// analytic test scenes' cameras.
+Camera CameraLookingAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, int width, int height,
+                       double focal_px);
+
 // Mean squared error and sum of absolute differences of two CV_32F mattes.
 double MatteMse(const cv::Mat& a, const cv::Mat& b);
 double MatteSad(const cv::Mat& a, const cv::Mat& b);

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "core/error.h"
+#include "reconstruct/test_workspace.h"
 #include "core/render/mesh.h"
 #include "reconstruct/visibility_refine.h"
 
@@ -16,17 +17,6 @@ namespace {
 
 const Eigen::Vector3d kCentre(0.01, -0.02, 0.05);
 constexpr double kRadius = 0.03;
-
-// A 320x240 pinhole camera at `eye` looking at `target`, image up = +Z.
-Camera RingCamera(const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
-  Intrinsics k;
-  k.width = 320;
-  k.height = 240;
-  k.fx = k.fy = 400;
-  k.cx = 160;
-  k.cy = 120;
-  return Camera(k, LookAt(eye, target, Eigen::Vector3d::UnitZ()));
-}
 
 // Depth (along the optical axis) of the sphere, else of the table (z = 0,
 // 0.3 m square), else unknown; Gaussian noise of `noise_m`.
@@ -65,7 +55,7 @@ DepthEvidence RingOfViews(double noise_m) {
                                                                   std::cos(elevation) * std::sin(azimuth),
                                                                   std::sin(elevation));
       evidence.names.push_back("view_" + std::to_string(evidence.cameras.size()));
-      evidence.cameras.push_back(RingCamera(eye, kCentre));
+      evidence.cameras.push_back(testing::CameraLookingAt(eye, kCentre, 320, 240, 400));
       evidence.depths.push_back(RenderDepth(evidence.cameras.back(), noise_m, &rng));
     }
   }
