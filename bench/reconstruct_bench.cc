@@ -62,6 +62,7 @@ struct BenchOptions {
   bool infoflow = true;
   bool breakdown = false;      // Chamfer after each proxy step (reconstruct_breakdown.h)
   std::string truth_cameras;   // write a ground-truth-camera copy of the workspace here and stop
+  std::string error_maps;      // write a per-frame panel of the matte errors here
   std::string json_out;
 };
 
@@ -170,6 +171,38 @@ reconstruct::MattingOptions StageMattingOptions(const fs::path& workspace) {
   return m;
 }
 
+// One row per frame: image, trimap, GT alpha, binary silhouette, relit's matte,
+// then the two signed errors (red: too opaque, blue: too transparent).
+void WriteErrorPanel(const std::string& folder, const std::string& frame, const cv::Mat& colour,
+                     const cv::Mat& trimap, const cv::Mat& gt, const cv::Mat& binary, const cv::Mat& relit) {
+  auto gray = [](const cv::Mat& a) {
+    cv::Mat out;
+    a.convertTo(out, CV_8U, a.depth() == CV_8U ? 1.0 : 255.0);
+    cv::cvtColor(out, out, cv::COLOR_GRAY2BGR);
+    return out;
+  };
+  auto signed_error = [&](const cv::Mat& alpha) {
+    cv::Mat d = alpha - gt, over, under;
+    cv::max(d, 0.0, over);
+    cv::max(-d, 0.0, under);
+    cv::Mat zero = cv::Mat::zeros(d.size(), CV_32F), bgr;
+    cv::merge(std::vector<cv::Mat>{under, zero, over}, bgr);
+    bgr.convertTo(bgr, CV_8UC3, 255.0);
+    return bgr;
+  };
+  cv::Mat image;
+  cv::cvtColor(colour, image, cv::COLOR_RGB2BGR);
+  image.convertTo(image, CV_8UC3, 255.0);
+  cv::Mat row;
+  cv::hconcat(std::vector<cv::Mat>{image, gray(trimap), gray(gt), gray(binary), gray(relit), signed_error(binary),
+                                   signed_error(relit)},
+              row);
+  fs::create_directories(folder);
+  std::string name = frame;
+  std::replace(name.begin(), name.end(), '/', '_');
+  cv::imwrite((fs::path(folder) / (name + ".png")).string(), row);
+}
+
 json MatteComparison(const BenchOptions& o, const json& truth, const render::TriangleMesh& proxy_mesh,
                      const ProxyFile& proxy) {
   const fs::path ws(o.workspace);
@@ -241,6 +274,7 @@ json MatteComparison(const BenchOptions& o, const json& truth, const render::Tri
     }
     row["relit_seconds"] = relit_s;
     per_frame.push_back(row);
+    if (!o.error_maps.empty()) WriteErrorPanel(o.error_maps, vm->view_frame, colour, trimap, gt, binary_alpha, stored);
     std::fprintf(stderr, "  %s: %d unknown px, relit %.2f s%s\n", vm->view_frame.c_str(),
                  row["unknown_px"].get<int>(), relit_s,
                  o.infoflow ? (", infoFlow " + std::to_string(row["infoflow_seconds"].get<double>()) + " s").c_str()
@@ -313,6 +347,9 @@ int RunReconstructBench(int argc, char** argv) {
   app.add_option("--write-truth-cameras", o.truth_cameras,
                  "write a copy of the workspace with the true lens and poses of the phone V frames to this folder "
                  "(calib/ only, capture/ linked) and stop; run relit-reconstruct on it");
+  app.add_option("--error-maps", o.error_maps,
+                 "write a panel per compared frame to this folder: image, trimap, GT alpha, binary silhouette, "
+                 "relit matte and both signed errors (red: too opaque, blue: too transparent)");
   app.add_option("--json", o.json_out, "also write the results to this JSON file");
   try {
     app.parse(argc, argv);
