@@ -1,6 +1,8 @@
 // RemoveSelfIntersections on closed spheres made to intersect themselves: a
 // vertex pushed through the opposite side, and folds from random vertex
-// displacements (what noisy fused depth leaves in the proxy).
+// displacements (what noisy fused depth leaves in the proxy). Also the NaN
+// vertices COLMAP's Poisson mesher can write.
+#include <limits>
 #include <map>
 #include <random>
 
@@ -9,6 +11,7 @@
 #include "core/error.h"
 #include "core/render/mesh.h"
 #include "reconstruct/mesh_cleanup.h"
+#include "reconstruct/point_surface.h"
 
 namespace relit::reconstruct {
 namespace {
@@ -123,6 +126,38 @@ TEST(RemoveSelfIntersections, OpenMeshIsAClearError) {
   EXPECT_THROW(RemoveSelfIntersections(&mesh), relit::Error);
   render::TriangleMesh closed = ClosedSphere(16, 8);
   EXPECT_THROW(RemoveSelfIntersections(&closed, 0), relit::Error);
+}
+
+// COLMAP's Poisson mesher can write NaN vertices (3 of 240k on a `full`
+// capture): they and their faces go, and the cleanup closes the holes.
+TEST(DropNonFiniteVertices, ItsHolesAreFilledByTheCleanup) {
+  render::TriangleMesh mesh = ClosedSphere(32, 16);
+  for (Eigen::Vector3f& p : mesh.positions) p.z() += 0.1f;  // above the crop plane
+  mesh.ComputeVertexNormals();
+  const std::size_t vertices = mesh.positions.size();
+  const Eigen::Vector3f far_vertex = mesh.positions[90];
+  int fans = 0;
+  for (const Eigen::Vector3i& t : mesh.triangles) fans += (t.array() == 40).any() || (t.array() == 90).any();
+  mesh.positions[40] = Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN());
+  mesh.positions[90].x() = std::numeric_limits<float>::infinity();
+  mesh.positions[91] = far_vertex;  // the kept vertices are re-indexed, not moved
+
+  EXPECT_EQ(DropNonFiniteVertices(&mesh), fans);
+  EXPECT_EQ(mesh.positions.size(), vertices - 2);
+  EXPECT_EQ(mesh.normals.size(), vertices - 2);
+  EXPECT_EQ(mesh.positions[89], far_vertex);
+  EXPECT_NO_THROW(mesh.Check("mesh"));
+  EXPECT_EQ(DropNonFiniteVertices(&mesh), 0);
+
+  CleanupOptions options;
+  CropRegion crop;
+  CleanupReport report;
+  const render::TriangleMesh clean = CleanupMesh(mesh, options, crop, &report);
+  EXPECT_EQ(report.holes_filled, 2);
+  const MeshStats stats = AnalyseMesh(clean);
+  EXPECT_TRUE(stats.closed());
+  EXPECT_TRUE(stats.manifold());
+  EXPECT_EQ(stats.components, 1);
 }
 
 }  // namespace

@@ -172,6 +172,13 @@ render::TriangleMesh PoissonSurface(const std::string& points_ply, const std::st
   RELIT_REQUIRE(fs::exists(mesh_ply) && fs::file_size(mesh_ply) > 0, "reconstruct: COLMAP poisson_mesher wrote no mesh ",
                 mesh_ply, "; see ", log_path);
   render::TriangleMesh mesh = ReadPlySoup(mesh_ply);
+  const size_t vertices = mesh.positions.size();
+  const int dropped_faces = DropNonFiniteVertices(&mesh);
+  if (dropped_faces > 0) {
+    spdlog::warn("COLMAP poisson_mesher wrote {} non-finite vertices in {}; they and their {} faces are dropped, "
+                 "the cleanup fills the holes",
+                 vertices - mesh.positions.size(), fs::path(mesh_ply).filename().string(), dropped_faces);
+  }
   RELIT_REQUIRE(!mesh.triangles.empty(), "reconstruct: COLMAP poisson_mesher produced an empty mesh (", mesh_ply,
                 "); see ", log_path, "; try a lower proxy.poisson_trim");
   return mesh;
@@ -219,6 +226,36 @@ render::TriangleMesh ReadPlySoup(const std::string& path) {
     }
   }
   return mesh;
+}
+
+int DropNonFiniteVertices(render::TriangleMesh* mesh) {
+  const size_t n = mesh->positions.size();
+  std::vector<int> remap(n, -1);
+  int kept = 0;
+  for (size_t v = 0; v < n; ++v) {
+    if (mesh->positions[v].allFinite()) remap[v] = kept++;
+  }
+  if (kept == static_cast<int>(n)) return 0;
+  auto compact = [&](auto& values) {
+    if (values.size() != n) return;
+    for (size_t v = 0; v < n; ++v) {
+      if (remap[v] >= 0) values[remap[v]] = values[v];
+    }
+    values.resize(kept);
+  };
+  compact(mesh->positions);
+  compact(mesh->normals);
+  compact(mesh->uvs);
+  const size_t faces = mesh->triangles.size();
+  std::vector<Eigen::Vector3i> triangles;
+  for (const Eigen::Vector3i& t : mesh->triangles) {
+    RELIT_REQUIRE(t.minCoeff() >= 0 && t.maxCoeff() < static_cast<int>(n), "mesh face (", t.transpose(),
+                  ") uses a vertex out of range (", n, " vertices)");
+    const Eigen::Vector3i r(remap[t[0]], remap[t[1]], remap[t[2]]);
+    if (r.minCoeff() >= 0) triangles.push_back(r);
+  }
+  mesh->triangles = std::move(triangles);
+  return static_cast<int>(faces - mesh->triangles.size());
 }
 
 }  // namespace relit::reconstruct

@@ -39,7 +39,9 @@ std::vector<OrientedPoint> ReadOrientedPly(const std::string& path);
 
 // Screened Poisson surface of an oriented PLY via `colmap poisson_mesher`
 // (log in `log_path`). COLMAP may exit 0 without a mesh: a missing or empty
-// output is an error naming the log.
+// output is an error naming the log. Its mesher can also write NaN
+// vertices (3 of 240k on a `full` capture); they and their faces are
+// dropped with a warning, and the cleanup fills the holes.
 render::TriangleMesh PoissonSurface(const std::string& points_ply, const std::string& mesh_ply,
                                     const std::string& log_path, const ProxyOptions& options);
 
@@ -52,5 +54,10 @@ std::vector<Eigen::Vector3d> ReadColmapPoints(const std::string& points3d_txt);
 
 // A PLY triangle mesh read as a polygon soup (tolerates non-manifold faces).
 render::TriangleMesh ReadPlySoup(const std::string& path);
+
+// Removes the vertices with a non-finite coordinate and every face that
+// uses one (other vertices re-indexed, normals and UVs kept for the rest);
+// returns the number of faces removed.
+int DropNonFiniteVertices(render::TriangleMesh* mesh);
 
 }  // namespace relit::reconstruct

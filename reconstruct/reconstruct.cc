@@ -83,6 +83,7 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
     record.AddInput("mesh", options.mesh);
     auto timer = record.Time("load_mesh");
     input = render::LoadMesh(options.mesh);
+    input.Check(options.mesh + " (--mesh)");  // name the file, not just "input mesh"
     report["proxy"] = {{"method", "mesh"}, {"mesh", options.mesh}};
   } else {
     nlohmann::json proxy_report;
