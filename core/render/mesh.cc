@@ -195,10 +195,15 @@ void TriangleMesh::Check(const std::string& what) const {
   RELIT_REQUIRE(uvs.empty() || uvs.size() == positions.size(), what,
                 ": uv count does not match vertex count");
   const int n = static_cast<int>(positions.size());
-  for (const auto& t : triangles) {
-    RELIT_REQUIRE(t.minCoeff() >= 0 && t.maxCoeff() < n, what, ": triangle index out of range");
+  for (size_t f = 0; f < triangles.size(); ++f) {
+    const Eigen::Vector3i& t = triangles[f];
+    RELIT_REQUIRE(t.minCoeff() >= 0 && t.maxCoeff() < n, what, ": triangle ", f, " (", t[0], " ", t[1], " ", t[2],
+                  ") uses a vertex out of range (", n, " vertices)");
   }
-  for (const auto& p : positions) RELIT_REQUIRE(p.allFinite(), what, ": vertex is not finite");
+  for (size_t v = 0; v < positions.size(); ++v) {
+    const Eigen::Vector3f& p = positions[v];
+    RELIT_REQUIRE(p.allFinite(), what, ": vertex ", v, " is not finite (", p.x(), ", ", p.y(), ", ", p.z(), ")");
+  }
 }
 
 TriangleMesh LoadMesh(const std::string& path) {

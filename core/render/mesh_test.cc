@@ -2,6 +2,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -58,6 +60,28 @@ TEST(Mesh, BadInputIsClearError) {
   const std::string empty = TempPath("empty.obj");
   std::ofstream(empty) << "# nothing\n";
   EXPECT_THROW(LoadMesh(empty), std::runtime_error);
+}
+
+// Check names the mesh, the element and what is wrong with it.
+TEST(Mesh, CheckNamesTheBadVertexOrTriangle) {
+  auto message = [](const TriangleMesh& mesh) {
+    try {
+      mesh.Check("proxy.obj");
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  TriangleMesh mesh = MakeSphere(Eigen::Vector3f::Zero(), 0.1f, 8, 4);
+  EXPECT_EQ(message(mesh), "no error");
+  mesh.positions[3].y() = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_NE(message(mesh).find("proxy.obj: vertex 3 is not finite"), std::string::npos) << message(mesh);
+  mesh = MakeSphere(Eigen::Vector3f::Zero(), 0.1f, 8, 4);
+  const int n = static_cast<int>(mesh.positions.size());
+  mesh.triangles[5][1] = n;
+  EXPECT_NE(message(mesh).find("proxy.obj: triangle 5"), std::string::npos) << message(mesh);
+  EXPECT_NE(message(mesh).find("out of range (" + std::to_string(n) + " vertices)"), std::string::npos)
+      << message(mesh);
 }
 
 }  // namespace
