@@ -40,28 +40,14 @@ double HitCylinder(const Eigen::Vector3d& origin, const Eigen::Vector3d& ray) {
   return best;
 }
 
-// Depth along the optical axis of the cylinder, else of the table (z = 0,
-// 0.3 m square), else unknown.
+// Depth along the optical axis of the cylinder, else of the table, else
+// unknown. Without the table the cylinder's top half is black too.
 cv::Mat RenderDepth(const Camera& camera, bool table) {
-  // Without the table the cylinder's top half is black too (no depth).
-  cv::Mat depth(camera.intrinsics().height, camera.intrinsics().width, CV_32F, cv::Scalar(0));
-  const Eigen::Vector3d origin = camera.Center();
-  const Eigen::Matrix3d world_from_cam = camera.world_from_cam().rotation.toRotationMatrix();
-  for (int y = 0; y < depth.rows; ++y) {
-    for (int x = 0; x < depth.cols; ++x) {
-      const Eigen::Vector3d ray_cam = camera.PixelToCameraRay(Eigen::Vector2d(x, y));
-      const Eigen::Vector3d ray = world_from_cam * ray_cam;
-      double t = HitCylinder(origin, ray);
-      if (!table && t > 0 && origin.z() + t * ray.z() > kHeight / 2) t = -1;
-      if (t <= 0 && ray.z() < 0 && table) {
-        const double t_table = -origin.z() / ray.z();
-        const Eigen::Vector3d hit = origin + t_table * ray;
-        if (std::abs(hit.x()) < 0.15 && std::abs(hit.y()) < 0.15) t = t_table;
-      }
-      if (t > 0) depth.at<float>(y, x) = static_cast<float>(t * ray_cam.z());
-    }
-  }
-  return depth;
+  auto hit = [table](const Eigen::Vector3d& origin, const Eigen::Vector3d& ray) {
+    const double t = HitCylinder(origin, ray);
+    return !table && t > 0 && origin.z() + t * ray.z() > kHeight / 2 ? -1.0 : t;
+  };
+  return testing::RenderAnalyticDepth(camera, hit, table);
 }
 
 struct Views {

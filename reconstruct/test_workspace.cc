@@ -1,5 +1,6 @@
 #include "reconstruct/test_workspace.h"
 
+#include <cmath>
 #include <filesystem>
 
 #include "core/color.h"
@@ -115,6 +116,28 @@ Camera CameraLookingAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target
   k.cx = 0.5 * width;
   k.cy = 0.5 * height;
   return Camera(k, LookAt(eye, target, Eigen::Vector3d::UnitZ()));
+}
+
+cv::Mat RenderAnalyticDepth(const Camera& camera,
+                            const std::function<double(const Eigen::Vector3d& origin, const Eigen::Vector3d& ray)>& hit,
+                            bool table) {
+  cv::Mat depth(camera.intrinsics().height, camera.intrinsics().width, CV_32F, cv::Scalar(0));
+  const Eigen::Vector3d origin = camera.Center();
+  const Eigen::Matrix3d world_from_cam = camera.world_from_cam().rotation.toRotationMatrix();
+  for (int y = 0; y < depth.rows; ++y) {
+    for (int x = 0; x < depth.cols; ++x) {
+      const Eigen::Vector3d ray_cam = camera.PixelToCameraRay(Eigen::Vector2d(x, y));
+      const Eigen::Vector3d ray = world_from_cam * ray_cam;
+      double t = hit(origin, ray);
+      if (t <= 0 && ray.z() < 0 && table) {
+        const double t_table = -origin.z() / ray.z();
+        const Eigen::Vector3d on_table = origin + t_table * ray;
+        if (std::abs(on_table.x()) < 0.15 && std::abs(on_table.y()) < 0.15) t = t_table;
+      }
+      if (t > 0) depth.at<float>(y, x) = static_cast<float>(t * ray_cam.z());
+    }
+  }
+  return depth;
 }
 
 double MatteMse(const cv::Mat& a, const cv::Mat& b) {

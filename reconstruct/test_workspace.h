@@ -5,6 +5,7 @@
 // calib stage's output until calib exists. Test-only code.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,15 @@ TestWorkspace MakeTestWorkspace(const std::string& dir, int frames, int samples_
 // analytic test scenes' cameras.
 Camera CameraLookingAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, int width, int height,
                        double focal_px);
+
+// Depth along the optical axis (CV_32F metres, 0 = none) of an analytic
+// scene: `hit` gives the object's nearest ray parameter (<= 0: missed) for
+// a unit world ray from the camera centre; a ray that misses it and meets
+// the table (z = 0) within the 0.3 m square about the origin sees the
+// table, when `table` is set.
+cv::Mat RenderAnalyticDepth(const Camera& camera,
+                            const std::function<double(const Eigen::Vector3d& origin, const Eigen::Vector3d& ray)>& hit,
+                            bool table);
 
 // Mean squared error and sum of absolute differences of two CV_32F mattes.
 double MatteMse(const cv::Mat& a, const cv::Mat& b);

@@ -18,27 +18,19 @@ namespace {
 const Eigen::Vector3d kCentre(0.01, -0.02, 0.05);
 constexpr double kRadius = 0.03;
 
-// Depth (along the optical axis) of the sphere, else of the table (z = 0,
-// 0.3 m square), else unknown; Gaussian noise of `noise_m`.
+// Depth (along the optical axis) of the sphere, else of the table, else
+// unknown; Gaussian noise of `noise_m`.
 cv::Mat RenderDepth(const Camera& camera, double noise_m, std::mt19937* rng) {
-  std::normal_distribution<double> noise(0.0, noise_m);
-  cv::Mat depth(camera.intrinsics().height, camera.intrinsics().width, CV_32F, cv::Scalar(0));
-  const Eigen::Vector3d origin = camera.Center();
-  const Eigen::Matrix3d world_from_cam = camera.world_from_cam().rotation.toRotationMatrix();
-  for (int y = 0; y < depth.rows; ++y) {
-    for (int x = 0; x < depth.cols; ++x) {
-      const Eigen::Vector3d ray_cam = camera.PixelToCameraRay(Eigen::Vector2d(x, y));
-      const Eigen::Vector3d ray = world_from_cam * ray_cam;
-      double t = -1;
-      const Eigen::Vector3d oc = origin - kCentre;
-      const double b = oc.dot(ray), c = oc.squaredNorm() - kRadius * kRadius, disc = b * b - c;
-      if (disc >= 0) t = -b - std::sqrt(disc);
-      if (t <= 0 && ray.z() < 0) {
-        const double t_table = -origin.z() / ray.z();
-        const Eigen::Vector3d hit = origin + t_table * ray;
-        if (std::abs(hit.x()) < 0.15 && std::abs(hit.y()) < 0.15) t = t_table;
-      }
-      if (t > 0) depth.at<float>(y, x) = static_cast<float>(t * ray_cam.z() + (noise_m > 0 ? noise(*rng) : 0.0));
+  auto hit = [](const Eigen::Vector3d& origin, const Eigen::Vector3d& ray) {
+    const Eigen::Vector3d oc = origin - kCentre;
+    const double b = oc.dot(ray), c = oc.squaredNorm() - kRadius * kRadius, disc = b * b - c;
+    return disc >= 0 ? -b - std::sqrt(disc) : -1.0;
+  };
+  cv::Mat depth = testing::RenderAnalyticDepth(camera, hit, /*table=*/true);
+  if (noise_m > 0) {
+    std::normal_distribution<double> noise(0.0, noise_m);
+    for (float& z : cv::Mat_<float>(depth)) {
+      if (z > 0) z = static_cast<float>(z + noise(*rng));
     }
   }
   return depth;
