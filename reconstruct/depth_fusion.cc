@@ -52,14 +52,12 @@ int AgreeingViews(const Eigen::Vector3d& point, size_t self, const std::vector<C
   for (size_t k = 0; k < cameras.size(); ++k) {
     if (k == self) continue;
     const Eigen::Vector3d in_k = cameras[k].cam_from_world() * point;
-    if (in_k.z() <= 0) continue;
-    const Eigen::Vector2d pixel = cameras[k].ProjectCameraPoint(in_k);
-    const int x = static_cast<int>(std::lround(pixel.x())), y = static_cast<int>(std::lround(pixel.y()));
-    if (x < 0 || y < 0 || x >= depths[k].cols || y >= depths[k].rows) continue;
-    const float zk = depths[k].at<float>(y, x);
+    cv::Point pixel;
+    if (!NearestPixel(cameras[k], in_k, depths[k].size(), &pixel)) continue;
+    const float zk = depths[k].at<float>(pixel);
     if (zk <= 0 || std::abs(zk - in_k.z()) > options.depth_tolerance * in_k.z()) continue;
     if (sum) {
-      const Eigen::Vector3d ray_k = cameras[k].PixelToCameraRay(Eigen::Vector2d(x, y));
+      const Eigen::Vector3d ray_k = cameras[k].PixelToCameraRay(Eigen::Vector2d(pixel.x, pixel.y));
       *sum += poses[k].world_from_cam * (ray_k * (zk / ray_k.z()));
     }
     if (++agreeing == enough) break;

@@ -6,6 +6,7 @@
 // direction to the camera that measured it (to orient its normal).
 #pragma once
 
+#include <cmath>
 #include <functional>
 #include <vector>
 
@@ -46,6 +47,18 @@ std::vector<FusedPoint> FuseDepthMaps(const std::vector<Camera>& cameras, const 
 // refinement may trust to say "this ray is empty up to here".
 std::vector<cv::Mat> ConsistentDepthMaps(const std::vector<Camera>& cameras, const std::vector<cv::Mat>& depths,
                                          const ProxyOptions& options, const std::function<void()>& on_frame_done = {});
+
+// The pixel nearest to where a camera-frame point projects, in an image of
+// `size`; false when the point is behind the camera or falls outside.
+// Inline: the fusion and the hull call it per point and view.
+inline bool NearestPixel(const Camera& camera, const Eigen::Vector3d& point_cam, const cv::Size& size,
+                         cv::Point* pixel) {
+  if (point_cam.z() <= 0) return false;
+  const Eigen::Vector2d projected = camera.ProjectCameraPoint(point_cam);
+  pixel->x = static_cast<int>(std::lround(projected.x()));
+  pixel->y = static_cast<int>(std::lround(projected.y()));
+  return pixel->x >= 0 && pixel->y >= 0 && pixel->x < size.width && pixel->y < size.height;
+}
 
 // The nearest valid depth of each pixel's 3x3 neighbourhood (0 where none):
 // free-space tests use it so that a projection rounded onto an object's rim

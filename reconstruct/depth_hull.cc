@@ -149,11 +149,9 @@ VoxelHull CarveDepthHull(const std::vector<Camera>& cameras, const std::vector<c
         int free_views = 0;
         for (size_t v = 0; v < cameras.size() && free_views < options.hull_min_free_views; ++v) {
           const Eigen::Vector3d in_cam = cameras[v].cam_from_world() * centre;
-          if (in_cam.z() <= 0) continue;
-          const Eigen::Vector2d pixel = cameras[v].ProjectCameraPoint(in_cam);
-          const int x = static_cast<int>(std::lround(pixel.x())), y = static_cast<int>(std::lround(pixel.y()));
-          if (x < 0 || y < 0 || x >= nearest[v].cols || y >= nearest[v].rows) continue;
-          const float seen = nearest[v].at<float>(y, x);
+          cv::Point pixel;
+          if (!NearestPixel(cameras[v], in_cam, nearest[v].size(), &pixel)) continue;
+          const float seen = nearest[v].at<float>(pixel);
           if (seen > 0 && seen > in_cam.z() * (1 + options.hull_free_tolerance) + half_diagonal) ++free_views;
         }
         carved[grid.Index(i, j, k)] = free_views >= options.hull_min_free_views ? 1 : 0;

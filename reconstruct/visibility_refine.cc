@@ -43,24 +43,22 @@ VertexEvidence Judge(const Eigen::Vector3d& p, const Eigen::Vector3d& normal, co
   for (const ViewData& view : views) {
     const Camera& camera = *view.camera;
     const Eigen::Vector3d p_cam = camera.cam_from_world() * p;
-    if (p_cam.z() <= 0) continue;
-    const Eigen::Vector2d pixel = camera.ProjectCameraPoint(p_cam);
-    const int x = static_cast<int>(std::lround(pixel.x())), y = static_cast<int>(std::lround(pixel.y()));
-    if (x < 0 || y < 0 || x >= view.depth->cols || y >= view.depth->rows) continue;
+    cv::Point pixel;
+    if (!NearestPixel(camera, p_cam, view.depth->size(), &pixel)) continue;
     // Only views in front of the surface judge it: a grazing ray passes the
     // rim of the true surface too, and would erode every silhouette.
     const double cosine = normal.dot((view.centre - p).normalized());
     if (cosine < options.min_facing_cosine) continue;
     const double z_vertex = p_cam.z();
-    const float nearest = view.nearest_depth.at<float>(y, x);
+    const float nearest = view.nearest_depth.at<float>(pixel);
     if (nearest > 0 && nearest > z_vertex * (1 + options.free_space_tolerance)) {
       ++e.free_space;
       continue;
     }
-    const float z_seen = view.depth->at<float>(y, x);
+    const float z_seen = view.depth->at<float>(pixel);
     if (z_seen <= 0 || std::abs(z_seen - z_vertex) > options.support_band * z_vertex) continue;
     ++e.support;
-    const Eigen::Vector3d ray = camera.PixelToCameraRay(Eigen::Vector2d(x, y));
+    const Eigen::Vector3d ray = camera.PixelToCameraRay(Eigen::Vector2d(pixel.x, pixel.y));
     const Eigen::Vector3d seen = view.world_from_cam * (ray * (z_seen / ray.z()));
     // The pixel centre's ray misses p by up to half a pixel sideways: only
     // the offset along the normal counts.
