@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <chrono>
 #include <cmath>
 #include <memory>
 
@@ -190,7 +189,6 @@ void AddHullPoints(const std::vector<Camera>& cameras, const std::vector<cv::Mat
                    const CropRegion& crop, const ProxyOptions& options, double spacing, const fs::path& work_dir,
                    RunRecord* record, nlohmann::json* report, std::vector<OrientedPoint>* points) {
   auto timer = record->Time("proxy_depth_hull");
-  const auto start = std::chrono::steady_clock::now();
   const double voxel = options.hull_voxel_m > 0 ? options.hull_voxel_m : spacing;
   const VoxelHull hull = CarveDepthHull(cameras, consistent_depths, *points, crop, options, voxel);
   if (hull.open_border_fraction > options.hull_max_open_border) {
@@ -214,7 +212,7 @@ void AddHullPoints(const std::vector<Camera>& cameras, const std::vector<cv::Mat
   hull_report.added_points = static_cast<int>(added.size());
   WriteOrientedPly((work_dir / "hull_points.ply").string(), added);
   points->insert(points->end(), added.begin(), added.end());
-  hull_report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  hull_report.seconds = timer.Stop();
   (*report)["depth_hull"] = hull_report.ToJson();
   spdlog::info("depth hull: {}x{}x{} voxels of {:.2f} mm, {} occupied; {} of its {} surface samples added "
                "where no point is within {:.1f} mm",
