@@ -5,7 +5,6 @@
 #include <cmath>
 #include <deque>
 #include <limits>
-#include <unordered_map>
 
 #include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
@@ -47,10 +46,13 @@ bool VoxelHull::At(int i, int j, int k) const {
   return grid.Inside(i, j, k) && occupied[grid.Index(i, j, k)] != 0;
 }
 
+Eigen::Vector3i VoxelHull::CellOf(const Eigen::Vector3d& p) const {
+  return ((p - origin_m) / voxel_m).array().floor().cast<int>();
+}
+
 bool VoxelHull::Contains(const Eigen::Vector3d& p) const {
-  const Eigen::Vector3d g = (p - origin_m) / voxel_m;
-  return At(static_cast<int>(std::floor(g.x())), static_cast<int>(std::floor(g.y())),
-            static_cast<int>(std::floor(g.z())));
+  const Eigen::Vector3i c = CellOf(p);
+  return At(c.x(), c.y(), c.z());
 }
 
 namespace {
@@ -169,9 +171,8 @@ VoxelHull CarveDepthHull(const std::vector<Camera>& cameras, const std::vector<c
     cv::Mat contact(hull.size.y(), hull.size.x(), CV_8U, cv::Scalar(0));
     for (const OrientedPoint& p : points) {
       if (p.position_m.z() >= options.min_height_m + options.hull_contact_height_m) continue;
-      const Eigen::Vector2d g = (p.position_m.head<2>() - hull.origin_m.head<2>()) / hull.voxel_m;
-      const int i = static_cast<int>(std::floor(g.x())), j = static_cast<int>(std::floor(g.y()));
-      if (i >= 0 && j >= 0 && i < hull.size.x() && j < hull.size.y()) contact.at<uchar>(j, i) = 1;
+      const Eigen::Vector3i c = hull.CellOf(p.position_m);
+      if (c.x() >= 0 && c.y() >= 0 && c.x() < hull.size.x() && c.y() < hull.size.y()) contact.at<uchar>(c.y(), c.x()) = 1;
     }
     const int radius = static_cast<int>(std::ceil(options.hull_contact_radius_m / hull.voxel_m));
     if (radius > 0) {
@@ -194,10 +195,10 @@ VoxelHull CarveDepthHull(const std::vector<Camera>& cameras, const std::vector<c
                 "are the depth maps and cameras consistent?");
   std::vector<int> votes(regions, 0);
   for (const OrientedPoint& p : points) {
-    const Eigen::Vector3d g = (p.position_m - hull.origin_m) / hull.voxel_m;
-    const int i = static_cast<int>(std::floor(g.x())), j = static_cast<int>(std::floor(g.y())),
-              k = static_cast<int>(std::floor(g.z()));
-    if (grid.Inside(i, j, k) && label[grid.Index(i, j, k)] >= 0) ++votes[label[grid.Index(i, j, k)]];
+    const Eigen::Vector3i c = hull.CellOf(p.position_m);
+    if (grid.Inside(c.x(), c.y(), c.z()) && label[grid.Index(c.x(), c.y(), c.z())] >= 0) {
+      ++votes[label[grid.Index(c.x(), c.y(), c.z())]];
+    }
   }
   const int keep = static_cast<int>(std::max_element(votes.begin(), votes.end()) - votes.begin());
   // Cavities: carved pockets the outside cannot reach are inside the object.
@@ -267,31 +268,7 @@ std::vector<OrientedPoint> HullSurfacePoints(const VoxelHull& hull, const std::v
     k = std::clamp(k, 0, hull.size.z() - 1);
     return field[grid.Index(i, j, k)];
   };
-  // The fused points in cells of gap_m, to test "is any within gap_m".
-  auto cell_key = [gap_m](const Eigen::Vector3d& p) {
-    const Eigen::Vector3i c = (p / gap_m).array().floor().cast<int>();
-    return (static_cast<int64_t>(c.x()) * 73856093) ^ (static_cast<int64_t>(c.y()) * 19349663) ^
-           (static_cast<int64_t>(c.z()) * 83492791);
-  };
-  std::unordered_map<int64_t, std::vector<Eigen::Vector3d>> cells;
-  for (const OrientedPoint& p : points) cells[cell_key(p.position_m)].push_back(p.position_m);
-  auto near_point = [&](const Eigen::Vector3d& q) {
-    for (int dz = -1; dz <= 1; ++dz) {
-      for (int dy = -1; dy <= 1; ++dy) {
-        for (int dx = -1; dx <= 1; ++dx) {
-          const auto it = cells.find(cell_key(q + gap_m * Eigen::Vector3d(dx, dy, dz)));
-          if (it == cells.end()) continue;
-          for (const Eigen::Vector3d& p : it->second) {
-            if ((p - q).squaredNorm() < gap_m * gap_m) return true;
-          }
-        }
-      }
-    }
-    return false;
-  };
-
-  std::vector<OrientedPoint> added;
-  *surface_points = 0;
+  std::vector<OrientedPoint> samples;
   for (int k = 0; k < hull.size.z(); ++k) {
     for (int j = 0; j < hull.size.y(); ++j) {
       for (int i = 0; i < hull.size.x(); ++i) {
@@ -313,12 +290,21 @@ std::vector<OrientedPoint> HullSurfacePoints(const VoxelHull& hull, const std::v
           };
           const Eigen::Vector3d g = (1 - t) * gradient(i, j, k) + t * gradient(n.x(), n.y(), n.z());
           if (g.norm() <= 0) continue;
-          ++*surface_points;
-          if (near_point(position)) continue;
-          added.push_back({position, -g.normalized()});
+          samples.push_back({position, -g.normalized()});
         }
       }
     }
+  }
+  *surface_points = static_cast<int>(samples.size());
+  // Only where no fused point is within gap_m.
+  std::vector<Eigen::Vector3d> sample_positions, point_positions;
+  for (const OrientedPoint& s : samples) sample_positions.push_back(s.position_m);
+  for (const OrientedPoint& p : points) point_positions.push_back(p.position_m);
+  if (point_positions.empty()) return samples;
+  const std::vector<double> nearest = DistancesToPoints(sample_positions, point_positions);
+  std::vector<OrientedPoint> added;
+  for (size_t s = 0; s < samples.size(); ++s) {
+    if (nearest[s] >= gap_m) added.push_back(samples[s]);
   }
   return added;
 }

@@ -54,6 +54,7 @@ struct VoxelHull {
   double open_border_fraction = 0;
   bool At(int i, int j, int k) const;
   bool Contains(const Eigen::Vector3d& p) const;  // false outside the grid
+  Eigen::Vector3i CellOf(const Eigen::Vector3d& p) const;  // the cell holding p (may lie outside the grid)
 };
 
 // Carves the grid around `points` (their robust bounding box, widened by
