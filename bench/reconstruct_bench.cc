@@ -15,6 +15,9 @@
 //  3. --breakdown: the Chamfer distance after each step of the dense proxy
 //     path; --write-truth-cameras: a copy of the workspace with true cameras
 //     (reconstruct_breakdown.h).
+//  4. --offset-sweep: the same matting with the GT mesh, moved by known
+//     offsets along its normals, as the proxy (how the matte's gain over the
+//     binary silhouette depends on the proxy's error).
 // Reads only; results and how to reproduce them: docs/benchmarks.md,
 // section "Reconstruct".
 #include <algorithm>
@@ -23,6 +26,7 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -63,6 +67,7 @@ struct BenchOptions {
   bool breakdown = false;      // Chamfer after each proxy step (reconstruct_breakdown.h)
   std::string truth_cameras;   // write a ground-truth-camera copy of the workspace here and stop
   std::string error_maps;      // write a per-frame panel of the matte errors here
+  std::vector<double> offset_sweep_mm;  // GT mesh offsets (mm along its normals) used as proxies
   std::string json_out;
 };
 
@@ -203,91 +208,174 @@ void WriteErrorPanel(const std::string& folder, const std::string& frame, const 
   cv::imwrite((fs::path(folder) / (name + ".png")).string(), row);
 }
 
-json MatteComparison(const BenchOptions& o, const json& truth, const render::TriangleMesh& proxy_mesh,
-                     const ProxyFile& proxy) {
-  const fs::path ws(o.workspace);
-  const CamerasFile cameras = ReadCamerasFile((ws / "calib" / "cameras.json").string());
-  const json capture = ReadJsonFile((ws / "capture" / "capture.json").string(), "capture", 1);
-  std::map<int, int> source_frame;  // capture index -> rendered video frame
-  for (const json& f : capture.at("view_frames")) source_frame[f.at("index")] = f.at("source_frame");
-  const Intrinsics& lens = cameras.devices.at("view");
-  const calib::FrameUndistorter undistorter(lens, cameras.undistorted_view);
-  const reconstruct::MattingOptions matting = StageMattingOptions(ws);
-  render::Scene scene;
-  scene.AddObject(proxy_mesh, render::Material::Lambert(render::Rgb::Constant(0.5f)), 1);
-  scene.Commit();
+// What the matte comparisons need of one matted frame: its camera, its
+// undistorted colour image, the stage's trimap, band and matte, and the GT
+// alpha resampled exactly like the frame.
+struct MatteFrame {
+  std::string name;
+  Camera camera;
+  cv::Mat colour, trimap, unknown, stored, gt;
+  std::string image_8bit;  // the undistorted frame's file
+  int band_px = 0;
+};
 
-  std::vector<const ViewMatte*> frames;
-  const size_t n = proxy.mattes.size();
-  const size_t wanted = o.max_frames > 0 ? std::min(n, static_cast<size_t>(o.max_frames)) : n;
-  for (size_t i = 0; i < wanted; ++i) frames.push_back(&proxy.mattes[i * n / wanted]);
-  RELIT_REQUIRE(!frames.empty(), ws.string(), "/reconstruct/proxy.json lists no mattes");
-  MethodErrors binary, relit, infoflow;
-  const double megapixels = cameras.undistorted_view.width * cameras.undistorted_view.height / 1e6;
-  json per_frame = json::array();
-  for (const ViewMatte* vm : frames) {
-    const CalibratedFrame* frame = cameras.Find(vm->view_frame);
-    RELIT_REQUIRE(frame, "matte of ", vm->view_frame, " has no frame in cameras.json");
-    const int index = std::stoi(vm->view_frame.substr(vm->view_frame.find('/') + 1));
-    const json& truth_frame = truth.at("videos").at("view").at("frames").at(source_frame.at(index));
-    cv::Mat gt_distorted = ReadImage((fs::path(o.synth) / truth_frame.at("alpha").get<std::string>()).string()).ToMat();
+class MatteFrames {
+ public:
+  MatteFrames(const BenchOptions& o, const json& truth, const ProxyFile& proxy)
+      : o_(o), truth_(truth), ws_(o.workspace),
+        cameras_(ReadCamerasFile((ws_ / "calib" / "cameras.json").string())),
+        undistorter_(cameras_.devices.at("view"), cameras_.undistorted_view) {
+    const json capture = ReadJsonFile((ws_ / "capture" / "capture.json").string(), "capture", 1);
+    for (const json& f : capture.at("view_frames")) source_frame_[f.at("index")] = f.at("source_frame");
+    const json report = ReadJsonFile((ws_ / "reconstruct" / "reconstruct_report.json").string(), "reconstruct_report", 1);
+    for (const json& f : report.value("frames", json::array())) {
+      if (f.contains("band_px")) band_px_[f.at("view_frame")] = f.at("band_px");
+    }
+    const size_t n = proxy.mattes.size();
+    const size_t wanted = o.max_frames > 0 ? std::min(n, static_cast<size_t>(o.max_frames)) : n;
+    for (size_t i = 0; i < wanted; ++i) selected_.push_back(&proxy.mattes[i * n / wanted]);
+    RELIT_REQUIRE(!selected_.empty(), ws_.string(), "/reconstruct/proxy.json lists no mattes");
+  }
+  const std::vector<const ViewMatte*>& selected() const { return selected_; }
+  double megapixels() const { return cameras_.undistorted_view.width * cameras_.undistorted_view.height / 1e6; }
+
+  MatteFrame Load(const ViewMatte& vm) const {
+    MatteFrame m;
+    m.name = vm.view_frame;
+    const CalibratedFrame* frame = cameras_.Find(vm.view_frame);
+    RELIT_REQUIRE(frame, "matte of ", vm.view_frame, " has no frame in cameras.json");
+    m.camera = cameras_.ViewCamera(*frame);
+    const int index = std::stoi(vm.view_frame.substr(vm.view_frame.find('/') + 1));
+    const json& truth_frame = truth_.at("videos").at("view").at("frames").at(source_frame_.at(index));
+    cv::Mat gt_distorted =
+        ReadImage((fs::path(o_.synth) / truth_frame.at("alpha").get<std::string>()).string()).ToMat();
     if (gt_distorted.channels() > 1) cv::extractChannel(gt_distorted, gt_distorted, 0);
+    const Intrinsics& lens = cameras_.devices.at("view");
     if (gt_distorted.cols != lens.width || gt_distorted.rows != lens.height) {  // capture downscaled the video
       cv::resize(gt_distorted, gt_distorted, cv::Size(lens.width, lens.height), 0, 0, cv::INTER_AREA);
     }
-    const cv::Mat gt = undistorter.Remap(gt_distorted);
-    cv::Mat trimap;
-    ReadImage((ws / vm->trimap).string()).ToMat().convertTo(trimap, CV_8U, 255.0);
-    if (trimap.channels() > 1) cv::extractChannel(trimap, trimap, 0);
-    const cv::Mat unknown = trimap == reconstruct::kTrimapUnknown;
-    cv::Mat stored = ReadImage((ws / vm->matte).string()).ToMat();
-    if (stored.channels() > 1) cv::extractChannel(stored, stored, 0);
+    m.gt = undistorter_.Remap(gt_distorted);
+    ReadImage((ws_ / vm.trimap).string()).ToMat().convertTo(m.trimap, CV_8U, 255.0);
+    if (m.trimap.channels() > 1) cv::extractChannel(m.trimap, m.trimap, 0);
+    m.unknown = m.trimap == reconstruct::kTrimapUnknown;
+    m.stored = ReadImage((ws_ / vm.matte).string()).ToMat();
+    if (m.stored.channels() > 1) cv::extractChannel(m.stored, m.stored, 0);
+    m.colour = ReadImage((ws_ / frame->image_8bit).string()).SelectChannels(std::vector<int>{0, 1, 2}).ToMat();
+    const auto band = band_px_.find(vm.view_frame);
+    m.band_px = band != band_px_.end() ? band->second : 0;
+    m.image_8bit = (ws_ / frame->image_8bit).string();
+    return m;
+  }
 
+ private:
+  const BenchOptions& o_;
+  const json& truth_;
+  fs::path ws_;
+  CamerasFile cameras_;
+  calib::FrameUndistorter undistorter_;
+  std::map<int, int> source_frame_;  // capture index -> rendered video frame
+  std::map<std::string, int> band_px_;
+  std::vector<const ViewMatte*> selected_;
+};
+
+json MatteComparison(const BenchOptions& o, const json& truth, const render::TriangleMesh& proxy_mesh,
+                     const ProxyFile& proxy) {
+  const MatteFrames matte_frames(o, truth, proxy);
+  const reconstruct::MattingOptions matting = StageMattingOptions(o.workspace);
+  render::Scene scene;
+  scene.AddObject(proxy_mesh, render::Material::Lambert(render::Rgb::Constant(0.5f)), 1);
+  scene.Commit();
+  MethodErrors binary, relit, infoflow;
+  const double megapixels = matte_frames.megapixels();
+  json per_frame = json::array();
+  for (const ViewMatte* vm : matte_frames.selected()) {
+    const MatteFrame m = matte_frames.Load(*vm);
     auto start = std::chrono::steady_clock::now();
-    const cv::Mat silhouette = reconstruct::ProjectSilhouette(scene, cameras.ViewCamera(*frame));
+    const cv::Mat silhouette = reconstruct::ProjectSilhouette(scene, m.camera);
     cv::Mat binary_alpha;
     silhouette.convertTo(binary_alpha, CV_32F, 1.0 / 255.0);
-    binary.Add(binary_alpha, gt, unknown, Seconds(start));
+    binary.Add(binary_alpha, m.gt, m.unknown, Seconds(start));
 
     // relit's matte as the stage wrote it; the solve is repeated for its time.
-    const Image image = ReadImage((ws / frame->image_8bit).string());
-    const cv::Mat colour = image.SelectChannels(std::vector<int>{0, 1, 2}).ToMat();
     reconstruct::MatteStats stats;
     start = std::chrono::steady_clock::now();
-    const cv::Mat resolved = reconstruct::SolveClosedFormMatte(colour, trimap, binary_alpha, matting, &stats);
+    const cv::Mat resolved = reconstruct::SolveClosedFormMatte(m.colour, m.trimap, binary_alpha, matting, &stats);
     const double relit_s = Seconds(start);
-    relit.Add(stored, gt, unknown, relit_s);
-    const double resolve_difference = cv::norm(resolved, stored, cv::NORM_INF);
+    relit.Add(m.stored, m.gt, m.unknown, relit_s);
+    const double resolve_difference = cv::norm(resolved, m.stored, cv::NORM_INF);
 
-    json row = {{"frame", vm->view_frame}, {"unknown_px", cv::countNonZero(unknown)},
+    json row = {{"frame", m.name}, {"unknown_px", cv::countNonZero(m.unknown)},
                 {"relit_resolve_max_difference", resolve_difference}};
     if (o.infoflow) {
-      const cv::Mat bgr = cv::imread((ws / frame->image_8bit).string(), cv::IMREAD_COLOR);
+      const cv::Mat bgr = cv::imread(m.image_8bit, cv::IMREAD_COLOR);
       cv::Mat result, alpha;
       start = std::chrono::steady_clock::now();
-      cv::alphamat::infoFlow(bgr, trimap, result);
+      cv::alphamat::infoFlow(bgr, m.trimap, result);
       const double seconds = Seconds(start);
       result.convertTo(alpha, CV_32F, result.depth() == CV_8U ? 1.0 / 255.0 : 1.0);
       cv::min(cv::max(alpha, 0.0), 1.0, alpha);
-      infoflow.Add(alpha, gt, unknown, seconds);
+      infoflow.Add(alpha, m.gt, m.unknown, seconds);
       row["infoflow_seconds"] = seconds;
     }
     row["relit_seconds"] = relit_s;
     per_frame.push_back(row);
-    if (!o.error_maps.empty()) WriteErrorPanel(o.error_maps, vm->view_frame, colour, trimap, gt, binary_alpha, stored);
-    std::fprintf(stderr, "  %s: %d unknown px, relit %.2f s%s\n", vm->view_frame.c_str(),
-                 row["unknown_px"].get<int>(), relit_s,
+    if (!o.error_maps.empty()) WriteErrorPanel(o.error_maps, m.name, m.colour, m.trimap, m.gt, binary_alpha, m.stored);
+    std::fprintf(stderr, "  %s: %d unknown px, relit %.2f s%s\n", m.name.c_str(), row["unknown_px"].get<int>(),
+                 relit_s,
                  o.infoflow ? (", infoFlow " + std::to_string(row["infoflow_seconds"].get<double>()) + " s").c_str()
                             : "");
   }
-  json out = {{"frames", frames.size()},
-              {"of_mattes", n},
+  json out = {{"frames", matte_frames.selected().size()},
+              {"of_mattes", proxy.mattes.size()},
               {"image_megapixels", megapixels},
               {"binary_silhouette", binary.ToJson(megapixels)},
               {"relit_closed_form", relit.ToJson(megapixels)},
               {"per_frame", per_frame}};
   if (o.infoflow) out["opencv_infoflow"] = infoflow.ToJson(megapixels);
   return out;
+}
+
+// How the matte's gain over the binary silhouette depends on the proxy's
+// error: the GT mesh moved by d mm along its vertex normals (outward > 0,
+// never below the board) stands in for a proxy of known, uniform error; each
+// frame gets the stage's own band width, matting options and prior (that
+// silhouette), on the same images and GT alpha.
+json OffsetSweep(const BenchOptions& o, const json& truth, const ProxyFile& proxy) {
+  const MatteFrames matte_frames(o, truth, proxy);
+  const reconstruct::MattingOptions matting = StageMattingOptions(o.workspace);
+  const render::TriangleMesh gt_mesh = reconstruct::WeldEqualPositions(GtMesh(o, truth));
+  std::vector<std::unique_ptr<render::Scene>> scenes;
+  for (double offset_mm : o.offset_sweep_mm) {
+    render::TriangleMesh moved = gt_mesh;
+    moved.ComputeVertexNormals();
+    for (size_t v = 0; v < moved.positions.size(); ++v) {
+      moved.positions[v] += static_cast<float>(1e-3 * offset_mm) * moved.normals[v];
+      moved.positions[v].z() = std::max(moved.positions[v].z(), 0.0f);
+    }
+    scenes.push_back(std::make_unique<render::Scene>());
+    scenes.back()->AddObject(moved, render::Material::Lambert(render::Rgb::Constant(0.5f)), 1);
+    scenes.back()->Commit();
+  }
+  std::vector<MethodErrors> binary(scenes.size()), matte(scenes.size());
+  for (const ViewMatte* vm : matte_frames.selected()) {
+    const MatteFrame m = matte_frames.Load(*vm);
+    RELIT_REQUIRE(m.band_px > 0, o.workspace, "/reconstruct/reconstruct_report.json gives no band_px for ", m.name);
+    for (size_t k = 0; k < scenes.size(); ++k) {
+      const cv::Mat silhouette = reconstruct::ProjectSilhouette(*scenes[k], m.camera);
+      cv::Mat prior;
+      silhouette.convertTo(prior, CV_32F, 1.0 / 255.0);
+      binary[k].Add(prior, m.gt, m.unknown, 0);
+      reconstruct::MatteStats stats;
+      const cv::Mat trimap = reconstruct::MakeTrimap(silhouette, m.band_px);
+      matte[k].Add(reconstruct::SolveClosedFormMatte(m.colour, trimap, prior, matting, &stats), m.gt, m.unknown, 0);
+    }
+  }
+  json rows = json::array();
+  for (size_t k = 0; k < scenes.size(); ++k) {
+    const double b = binary[k].mse / binary[k].frames, r = matte[k].mse / matte[k].frames;
+    rows.push_back({{"offset_mm", o.offset_sweep_mm[k]}, {"binary_mse", b}, {"matte_mse", r}, {"ratio", b / r}});
+  }
+  return {{"frames", matte_frames.selected().size()}, {"rows", rows}};
 }
 
 // The first GT alpha file truth.json names that is missing, or "" when all
@@ -330,6 +418,16 @@ void PrintTable(const json& proxy, const json& mattes) {
   }
 }
 
+void PrintOffsetSweep(const json& sweep) {
+  std::printf("\nGT mesh offset as the proxy (%d frames, the stage's bands and matting options)\n",
+              sweep["frames"].get<int>());
+  std::printf("%10s %12s %12s %8s\n", "offset mm", "binary MSE", "matte MSE", "ratio");
+  for (const json& row : sweep["rows"]) {
+    std::printf("%10.1f %12.6f %12.6f %8.2f\n", row["offset_mm"].get<double>(), row["binary_mse"].get<double>(),
+                row["matte_mse"].get<double>(), row["ratio"].get<double>());
+  }
+}
+
 int RunReconstructBench(int argc, char** argv) {
   CLI::App app{"relit-bench-reconstruct: proxy accuracy and mattes (binary silhouette, relit closed-form, "
                "OpenCV alphamat::infoFlow) of a workspace against its synthetic ground truth. Reads only."};
@@ -350,6 +448,10 @@ int RunReconstructBench(int argc, char** argv) {
   app.add_option("--error-maps", o.error_maps,
                  "write a panel per compared frame to this folder: image, trimap, GT alpha, binary silhouette, "
                  "relit matte and both signed errors (red: too opaque, blue: too transparent)");
+  app.add_option("--offset-sweep", o.offset_sweep_mm,
+                 "also matte with the GT mesh moved by each of these offsets (mm along its normals, e.g. "
+                 "-2,0,2,5) as the proxy: binary and matte MSE per offset (the stage's band and options)")
+      ->delimiter(',');
   app.add_option("--json", o.json_out, "also write the results to this JSON file");
   try {
     app.parse(argc, argv);
@@ -385,7 +487,12 @@ int RunReconstructBench(int argc, char** argv) {
     results["mattes"] = {{"skipped", "no GT alpha " + missing_alpha +
                                          ": --synth must be the relit-synth output with truth/view_alpha"}};
   }
+  if (!o.offset_sweep_mm.empty()) {
+    RELIT_REQUIRE(missing_alpha.empty(), "--offset-sweep needs GT alpha: ", missing_alpha, " is missing");
+    results["offset_sweep"] = OffsetSweep(o, truth, proxy);
+  }
   PrintTable(results["proxy"], results["mattes"]);
+  if (results.contains("offset_sweep")) PrintOffsetSweep(results["offset_sweep"]);
   if (!o.json_out.empty()) WriteJsonFile(o.json_out, "bench_reconstruct", 1, results);
   return 0;
 }
