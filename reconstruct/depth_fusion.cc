@@ -69,16 +69,20 @@ int AgreeingViews(const Eigen::Vector3d& point, size_t self, const std::vector<C
 
 std::vector<FusedPoint> FuseDepthMaps(const std::vector<Camera>& cameras, const std::vector<cv::Mat>& depths,
                                       const CropRegion& crop, const ProxyOptions& options,
-                                      std::vector<FrameFusionStats>* stats,
+                                      std::vector<FrameFusionStats>* stats, std::vector<cv::Mat>* consistent_depths,
                                       const std::function<void()>& on_frame_done) {
   const size_t n = cameras.size();
   const std::vector<ViewPose> poses = Poses(cameras);
   stats->assign(n, FrameFusionStats{});
+  if (consistent_depths) consistent_depths->assign(n, cv::Mat());
+  const int enough = std::max(1, options.min_consistent_views);
   std::vector<std::vector<FusedPoint>> per_frame(n);
   tbb::parallel_for(size_t(0), n, [&](size_t i) {
     const Camera& camera = cameras[i];
     const cv::Mat& depth = depths[i];
     FrameFusionStats& s = (*stats)[i];
+    cv::Mat consistent;
+    if (consistent_depths) consistent = cv::Mat(depth.size(), CV_32F, cv::Scalar(0));
     for (int v = 0; v < depth.rows; ++v) {
       for (int u = 0; u < depth.cols; ++u) {
         const float z = depth.at<float>(v, u);
@@ -86,10 +90,17 @@ std::vector<FusedPoint> FuseDepthMaps(const std::vector<Camera>& cameras, const 
         ++s.depth_px;
         const Eigen::Vector3d ray = camera.PixelToCameraRay(Eigen::Vector2d(u, v));
         const Eigen::Vector3d point = poses[i].world_from_cam * (ray * (z / ray.z()));
-        if (!InCrop(point, crop, options.min_height_m)) continue;
+        if (!InCrop(point, crop, options.min_height_m)) {
+          // Outside the crop only the consistent map wants it: stop counting at `enough`.
+          if (consistent_depths && AgreeingViews(point, i, cameras, poses, depths, options, enough, nullptr) >= enough) {
+            consistent.at<float>(v, u) = z;
+          }
+          continue;
+        }
         ++s.in_crop_px;
         Eigen::Vector3d sum = point;
         const int agreeing = AgreeingViews(point, i, cameras, poses, depths, options, 0, &sum);
+        if (consistent_depths && agreeing >= enough) consistent.at<float>(v, u) = z;
         if (agreeing < options.min_consistent_views) continue;
         ++s.consistent_px;
         FusedPoint fused;
@@ -98,6 +109,7 @@ std::vector<FusedPoint> FuseDepthMaps(const std::vector<Camera>& cameras, const 
         per_frame[i].push_back(fused);
       }
     }
+    if (consistent_depths) (*consistent_depths)[i] = consistent;
     if (on_frame_done) on_frame_done();
   });
   std::vector<FusedPoint> points;
@@ -105,30 +117,6 @@ std::vector<FusedPoint> FuseDepthMaps(const std::vector<Camera>& cameras, const 
     points.insert(points.end(), frame_points.begin(), frame_points.end());
   }
   return points;
-}
-
-std::vector<cv::Mat> ConsistentDepthMaps(const std::vector<Camera>& cameras, const std::vector<cv::Mat>& depths,
-                                         const ProxyOptions& options, const std::function<void()>& on_frame_done) {
-  const std::vector<ViewPose> poses = Poses(cameras);
-  std::vector<cv::Mat> consistent(cameras.size());
-  const int enough = std::max(1, options.min_consistent_views);
-  tbb::parallel_for(size_t(0), cameras.size(), [&](size_t i) {
-    const cv::Mat& depth = depths[i];
-    consistent[i] = cv::Mat(depth.size(), CV_32F, cv::Scalar(0));
-    for (int v = 0; v < depth.rows; ++v) {
-      for (int u = 0; u < depth.cols; ++u) {
-        const float z = depth.at<float>(v, u);
-        if (z <= 0) continue;
-        const Eigen::Vector3d ray = cameras[i].PixelToCameraRay(Eigen::Vector2d(u, v));
-        const Eigen::Vector3d point = poses[i].world_from_cam * (ray * (z / ray.z()));
-        if (AgreeingViews(point, i, cameras, poses, depths, options, enough, nullptr) >= enough) {
-          consistent[i].at<float>(v, u) = z;
-        }
-      }
-    }
-    if (on_frame_done) on_frame_done();
-  });
-  return consistent;
 }
 
 }  // namespace relit::reconstruct

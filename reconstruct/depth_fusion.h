@@ -35,18 +35,16 @@ struct FrameFusionStats {
 // `depths[i]` is the CV_32F depth map (0 = none) of `cameras[i]`.
 // Thread-parallel over frames; `on_frame_done` (may be empty) is called once
 // per frame from worker threads.
+// With `consistent_depths`, also each depth map keeping only the pixels that
+// at least options.min_consistent_views (>= 1) other frames agree with, over
+// the whole frame (the table too): stereo mismatches on dark or textureless
+// parts rarely agree, so these are the depths the hull and the proxy
+// refinement may trust to say "this ray is empty up to here".
 std::vector<FusedPoint> FuseDepthMaps(const std::vector<Camera>& cameras, const std::vector<cv::Mat>& depths,
                                       const CropRegion& crop, const ProxyOptions& options,
                                       std::vector<FrameFusionStats>* stats,
+                                      std::vector<cv::Mat>* consistent_depths = nullptr,
                                       const std::function<void()>& on_frame_done = {});
-
-// Each depth map keeping only the pixels that at least
-// options.min_consistent_views other frames agree with (the fusion's test,
-// over the whole frame: the table too). Stereo mismatches on dark or
-// textureless parts rarely agree, so these are the depths the proxy
-// refinement may trust to say "this ray is empty up to here".
-std::vector<cv::Mat> ConsistentDepthMaps(const std::vector<Camera>& cameras, const std::vector<cv::Mat>& depths,
-                                         const ProxyOptions& options, const std::function<void()>& on_frame_done = {});
 
 // The pixel nearest to where a camera-frame point projects, in an image of
 // `size`; false when the point is behind the camera or falls outside.

@@ -44,13 +44,16 @@ struct DensePoints {
   std::vector<FusedPoint> points;
   std::vector<std::string> frames_without_points;
   double pixel_footprint_m = 0;  // median over frames, at the crop centre
-  std::vector<cv::Mat> depths;   // per frame, for the refinement
+  // Per frame, the depths other frames confirm (FuseDepthMaps), when asked
+  // for: the hull carves with them and the refinement after cleanup trusts them.
+  std::vector<cv::Mat> consistent_depths;
 };
 
 // Depth maps of every frame, then multi-view consistency and fusion.
 DensePoints DenseDepthPoints(const fs::path& workspace, const CamerasFile& cameras,
                              const std::vector<const CalibratedFrame*>& frames, const CropRegion& crop,
-                             const ProxyOptions& options, RunRecord* record, nlohmann::json* report) {
+                             const ProxyOptions& options, bool want_consistent_depths, RunRecord* record,
+                             nlohmann::json* report) {
   const size_t n = frames.size();
   std::vector<DepthView> views(n);
   std::vector<Camera> camera_list(n);
@@ -129,7 +132,9 @@ DensePoints DenseDepthPoints(const fs::path& workspace, const CamerasFile& camer
   {
     auto timer = record->Time("proxy_consistency");
     Progress progress("consistency", static_cast<int64_t>(n));
-    result.points = FuseDepthMaps(camera_list, depths, crop, options, &stats, [&] { progress.Advance(); });
+    result.points = FuseDepthMaps(camera_list, depths, crop, options, &stats,
+                                  want_consistent_depths ? &result.consistent_depths : nullptr,
+                                  [&] { progress.Advance(); });
   }
   std::vector<double> footprints;
   nlohmann::json frame_reports = nlohmann::json::array();
@@ -146,7 +151,6 @@ DensePoints DenseDepthPoints(const fs::path& workspace, const CamerasFile& camer
   result.pixel_footprint_m = footprints[n / 2];
   (*report)["frames"] = frame_reports;
   (*report)["fused_points"] = result.points.size();
-  result.depths = std::move(depths);
   spdlog::info("dense: {} consistent depth points from {} frames ({} without any)", result.points.size(), n,
                result.frames_without_points.size());
   return result;
@@ -284,7 +288,8 @@ render::TriangleMesh BuildProxyFromImages(const fs::path& workspace, const Camer
   const bool have_model = fs::exists(workspace / "calib" / "model" / "points3D.txt");
   DensePoints dense;
   if (options.method == "dense" || !have_model) {
-    dense = DenseDepthPoints(workspace, cameras, frames, crop, options, record, report);
+    dense = DenseDepthPoints(workspace, cameras, frames, crop, options, evidence || options.hull_points, record,
+                             report);
   }
   const double spacing = options.point_spacing_m > 0 ? options.point_spacing_m : 1.5 * dense.pixel_footprint_m;
   const std::string advice =
@@ -300,14 +305,7 @@ render::TriangleMesh BuildProxyFromImages(const fs::path& workspace, const Camer
     method = "sparse";
   }
   (*report)["method"] = method;
-  // The multi-view consistent depth maps: the hull carves with them and
-  // the refinement after cleanup trusts them.
-  std::vector<cv::Mat> consistent;
-  if (!dense.depths.empty() && (evidence || options.hull_points)) {
-    auto timer = record->Time("proxy_consistent_depth_maps");
-    Progress progress("consistent depths", static_cast<int64_t>(frames.size()));
-    consistent = ConsistentDepthMaps(camera_list, dense.depths, options, [&] { progress.Advance(); });
-  }
+  std::vector<cv::Mat> consistent = std::move(dense.consistent_depths);
   render::TriangleMesh mesh;
   if (method == "dense") {
     std::vector<OrientedPoint> oriented;

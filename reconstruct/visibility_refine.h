@@ -14,7 +14,7 @@
 // zero over the iterations) and Taubin-smooths the mesh (no shrinkage), as
 // space carving and depth-map mesh refinement do in multi-view stereo.
 // The depth maps should be the multi-view consistent ones
-// (ConsistentDepthMaps): single-pair mismatches would carve real surface.
+// (FuseDepthMaps' consistent_depths): single-pair mismatches would carve real surface.
 #pragma once
 
 #include <string>
