@@ -43,11 +43,12 @@ std::vector<ViewPose> Poses(const std::vector<Camera>& cameras) {
 }
 
 // The other frames whose depth maps hold `point` (within
-// options.depth_tolerance); their 3D points are added to *sum. Stops
-// counting at `enough` (0 = count all).
+// options.depth_tolerance); their 3D points are added to *sum and the
+// frames with any depth where it projects are counted in *with_depth (both
+// may be null). Stops counting at `enough` (0 = count all).
 int AgreeingViews(const Eigen::Vector3d& point, size_t self, const std::vector<Camera>& cameras,
                   const std::vector<ViewPose>& poses, const std::vector<cv::Mat>& depths,
-                  const ProxyOptions& options, int enough, Eigen::Vector3d* sum) {
+                  const ProxyOptions& options, int enough, Eigen::Vector3d* sum, int* with_depth) {
   int agreeing = 0;
   for (size_t k = 0; k < cameras.size(); ++k) {
     if (k == self) continue;
@@ -55,6 +56,7 @@ int AgreeingViews(const Eigen::Vector3d& point, size_t self, const std::vector<C
     cv::Point pixel;
     if (!NearestPixel(cameras[k], in_k, depths[k].size(), &pixel)) continue;
     const float zk = depths[k].at<float>(pixel);
+    if (with_depth && zk > 0) ++*with_depth;
     if (zk <= 0 || std::abs(zk - in_k.z()) > options.depth_tolerance * in_k.z()) continue;
     if (sum) {
       const Eigen::Vector3d ray_k = cameras[k].PixelToCameraRay(Eigen::Vector2d(pixel.x, pixel.y));
@@ -92,16 +94,20 @@ std::vector<FusedPoint> FuseDepthMaps(const std::vector<Camera>& cameras, const 
         const Eigen::Vector3d point = poses[i].world_from_cam * (ray * (z / ray.z()));
         if (!InCrop(point, crop, options.min_height_m)) {
           // Outside the crop only the consistent map wants it: stop counting at `enough`.
-          if (consistent_depths && AgreeingViews(point, i, cameras, poses, depths, options, enough, nullptr) >= enough) {
+          if (consistent_depths &&
+              AgreeingViews(point, i, cameras, poses, depths, options, enough, nullptr, nullptr) >= enough) {
             consistent.at<float>(v, u) = z;
           }
           continue;
         }
         ++s.in_crop_px;
         Eigen::Vector3d sum = point;
-        const int agreeing = AgreeingViews(point, i, cameras, poses, depths, options, 0, &sum);
+        int with_depth = 0;
+        const int agreeing = AgreeingViews(point, i, cameras, poses, depths, options, 0, &sum, &with_depth);
         if (consistent_depths && agreeing >= enough) consistent.at<float>(v, u) = z;
-        if (agreeing < options.min_consistent_views) continue;
+        const int required = std::max(options.min_consistent_views,
+                                      static_cast<int>(std::ceil(options.min_consistent_fraction * with_depth)));
+        if (agreeing < required) continue;
         ++s.consistent_px;
         FusedPoint fused;
         fused.position_m = sum / (agreeing + 1);

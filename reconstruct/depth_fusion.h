@@ -1,7 +1,8 @@
 // Multi-view geometric consistency and fusion of per-view depth maps into
 // one point cloud (the dense proxy path): a depth pixel survives when it
 // lies in the crop region above the board and at least
-// options.min_consistent_views other frames measured the same depth there;
+// options.min_consistent_views other frames, and options.min_consistent_fraction
+// of those with a depth where it projects, measured the same depth there;
 // the survivor is the mean of the agreeing 3D points and remembers the
 // direction to the camera that measured it (to orient its normal).
 #pragma once
@@ -36,7 +37,8 @@ struct FrameFusionStats {
 // Thread-parallel over frames; `on_frame_done` (may be empty) is called once
 // per frame from worker threads.
 // With `consistent_depths`, also each depth map keeping only the pixels that
-// at least options.min_consistent_views (>= 1) other frames agree with, over
+// at least options.min_consistent_views (>= 1) other frames agree with (no
+// share: the hull and the refinement were tuned without it), over
 // the whole frame (the table too): stereo mismatches on dark or textureless
 // parts rarely agree, so these are the depths the hull and the proxy
 // refinement may trust to say "this ray is empty up to here".

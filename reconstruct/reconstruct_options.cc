@@ -25,6 +25,7 @@ void ProxyOptions::Read(OptionsReader& r) {
   r.ReadRange("photo_min_score", &photo_min_score, -1.0, 1.0);
   r.ReadRange("photo_color_sigma", &photo_color_sigma, 0.0, 1000.0);
   r.ReadRange("min_consistent_views", &min_consistent_views, 0, 100);
+  r.ReadRange("min_consistent_fraction", &min_consistent_fraction, 0.0, 1.0);
   r.ReadRange("depth_tolerance", &depth_tolerance, 1e-5, 1.0);
   r.ReadRange("min_height_m", &min_height_m, 0.0, 1.0);
   r.ReadRange("min_cluster_fraction", &min_cluster_fraction, 0.0, 1.0);
@@ -63,6 +64,8 @@ void ProxyOptions::Check() const {
                 block_size_px);
   RELIT_REQUIRE(depth_tolerance > 0, "proxy.depth_tolerance must be > 0");
   RELIT_REQUIRE(min_consistent_views >= 0, "proxy.min_consistent_views must be >= 0");
+  RELIT_REQUIRE(min_consistent_fraction >= 0 && min_consistent_fraction <= 1,
+                "proxy.min_consistent_fraction must be in [0, 1], got ", min_consistent_fraction);
   RELIT_REQUIRE(!colmap.empty(), "proxy.colmap (the COLMAP executable) must not be empty");
   RELIT_REQUIRE(poisson_depth >= 5, "proxy.poisson_depth must be >= 5");
   RELIT_REQUIRE(threads >= 0, "proxy.threads must be >= 0");
@@ -89,6 +92,7 @@ nlohmann::json ProxyOptions::ToJson() const {
           {"photo_min_score", photo_min_score},
           {"photo_color_sigma", photo_color_sigma},
           {"min_consistent_views", min_consistent_views},
+          {"min_consistent_fraction", min_consistent_fraction},
           {"depth_tolerance", depth_tolerance},
           {"min_height_m", min_height_m},
           {"min_cluster_fraction", min_cluster_fraction},

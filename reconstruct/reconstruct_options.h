@@ -52,9 +52,15 @@ struct ProxyOptions {
   double photo_min_score = 0.2;
   double photo_color_sigma = 20.0;
   // Multi-view geometric consistency: a depth pixel survives when at least
-  // min_consistent_views other frames see the point at the same depth
-  // (relative difference below depth_tolerance).
+  // min_consistent_views other frames, and at least min_consistent_fraction
+  // of the other frames with a depth where it projects, see the point at
+  // the same depth (relative difference below depth_tolerance). The share
+  // adapts to how dense the depth maps are: flash-lit frames leave shadows
+  // without depth, so 2 views suit them, while an ambient geometry pass
+  // has depth nearly everywhere and 2 chance agreements keep stereo noise
+  // (demo-size geometry pass 1.14 -> 0.98 %, docs/reconstruct.md).
   int min_consistent_views = 2;
+  double min_consistent_fraction = 0.1;
   double depth_tolerance = 0.01;
   double min_height_m = 0.01;           // depth points at or below this height are the board/table
   double min_cluster_fraction = 0.2;    // point clusters smaller than this x the largest are dropped
