@@ -294,7 +294,7 @@ render::TriangleMesh BuildProxyFromImages(const fs::path& workspace, const Camer
   const double spacing = options.point_spacing_m > 0 ? options.point_spacing_m : 1.5 * dense.pixel_footprint_m;
   const std::string advice =
       "check that the frames are sharp, textured and lit and that calib's poses are right (calib_report.json), "
-      "or lower proxy.min_consistent_views, or pass a mesh with --mesh";
+      "or lower proxy.min_consistent_views or proxy.min_consistent_fraction, or pass a mesh with --mesh";
   std::string method = options.method;
   if (method == "dense" && static_cast<int>(dense.points.size()) < options.min_points) {
     RELIT_REQUIRE(options.sparse_fallback, "reconstruct: only ", dense.points.size(),
