@@ -343,13 +343,13 @@ json MatteComparison(const BenchOptions& o, const json& truth, const render::Tri
 json OffsetSweep(const BenchOptions& o, const json& truth, const ProxyFile& proxy) {
   const MatteFrames matte_frames(o, truth, proxy);
   const reconstruct::MattingOptions matting = StageMattingOptions(o.workspace);
-  const render::TriangleMesh gt_mesh = reconstruct::WeldEqualPositions(GtMesh(o, truth));
+  render::TriangleMesh gt_mesh = reconstruct::WeldEqualPositions(GtMesh(o, truth));
+  gt_mesh.ComputeVertexNormals();  // every offset moves along the GT's own normals
   std::vector<std::unique_ptr<render::Scene>> scenes;
   for (double offset_mm : o.offset_sweep_mm) {
     render::TriangleMesh moved = gt_mesh;
-    moved.ComputeVertexNormals();
     for (size_t v = 0; v < moved.positions.size(); ++v) {
-      moved.positions[v] += static_cast<float>(1e-3 * offset_mm) * moved.normals[v];
+      moved.positions[v] += static_cast<float>(1e-3 * offset_mm) * gt_mesh.normals[v];
       moved.positions[v].z() = std::max(moved.positions[v].z(), 0.0f);
     }
     scenes.push_back(std::make_unique<render::Scene>());
