@@ -68,6 +68,7 @@ struct BenchOptions {
   std::string truth_cameras;   // write a ground-truth-camera copy of the workspace here and stop
   std::string error_maps;      // write a per-frame panel of the matte errors here
   std::vector<double> offset_sweep_mm;  // GT mesh offsets (mm along its normals) used as proxies
+  int sweep_band_px = 0;       // the sweep's unknown half width; 0 = each frame's band from the stage
   std::string json_out;
 };
 
@@ -359,14 +360,15 @@ json OffsetSweep(const BenchOptions& o, const json& truth, const ProxyFile& prox
   std::vector<MethodErrors> binary(scenes.size()), matte(scenes.size());
   for (const ViewMatte* vm : matte_frames.selected()) {
     const MatteFrame m = matte_frames.Load(*vm);
-    RELIT_REQUIRE(m.band_px > 0, o.workspace, "/reconstruct/reconstruct_report.json gives no band_px for ", m.name);
+    RELIT_REQUIRE(o.sweep_band_px > 0 || m.band_px > 0, o.workspace,
+                  "/reconstruct/reconstruct_report.json gives no band_px for ", m.name, "; pass --sweep-band-px");
     for (size_t k = 0; k < scenes.size(); ++k) {
       const cv::Mat silhouette = reconstruct::ProjectSilhouette(*scenes[k], m.camera);
       cv::Mat prior;
       silhouette.convertTo(prior, CV_32F, 1.0 / 255.0);
       binary[k].Add(prior, m.gt, m.unknown, 0);
       reconstruct::MatteStats stats;
-      const cv::Mat trimap = reconstruct::MakeTrimap(silhouette, m.band_px);
+      const cv::Mat trimap = reconstruct::MakeTrimap(silhouette, o.sweep_band_px > 0 ? o.sweep_band_px : m.band_px);
       matte[k].Add(reconstruct::SolveClosedFormMatte(m.colour, trimap, prior, matting, &stats), m.gt, m.unknown, 0);
     }
   }
@@ -375,7 +377,7 @@ json OffsetSweep(const BenchOptions& o, const json& truth, const ProxyFile& prox
     const double b = binary[k].mse / binary[k].frames, r = matte[k].mse / matte[k].frames;
     rows.push_back({{"offset_mm", o.offset_sweep_mm[k]}, {"binary_mse", b}, {"matte_mse", r}, {"ratio", b / r}});
   }
-  return {{"frames", matte_frames.selected().size()}, {"rows", rows}};
+  return {{"frames", matte_frames.selected().size()}, {"band_px", o.sweep_band_px}, {"rows", rows}};
 }
 
 // The first GT alpha file truth.json names that is missing, or "" when all
@@ -419,8 +421,10 @@ void PrintTable(const json& proxy, const json& mattes) {
 }
 
 void PrintOffsetSweep(const json& sweep) {
-  std::printf("\nGT mesh offset as the proxy (%d frames, the stage's bands and matting options)\n",
-              sweep["frames"].get<int>());
+  const int band_px = sweep["band_px"].get<int>();
+  std::printf("\nGT mesh offset as the proxy (%d frames, %s, the stage's matting options)\n",
+              sweep["frames"].get<int>(),
+              band_px > 0 ? ("band half width " + std::to_string(band_px) + " px").c_str() : "the stage's bands");
   std::printf("%10s %12s %12s %8s\n", "offset mm", "binary MSE", "matte MSE", "ratio");
   for (const json& row : sweep["rows"]) {
     std::printf("%10.1f %12.6f %12.6f %8.2f\n", row["offset_mm"].get<double>(), row["binary_mse"].get<double>(),
@@ -452,6 +456,10 @@ int RunReconstructBench(int argc, char** argv) {
                  "also matte with the GT mesh moved by each of these offsets (mm along its normals, e.g. "
                  "-2,0,2,5) as the proxy: binary and matte MSE per offset (the stage's band and options)")
       ->delimiter(',');
+  app.add_option("--sweep-band-px", o.sweep_band_px,
+                 "the offset sweep's unknown band half width in pixels instead of each frame's band from the stage "
+                 "(how much a matte can add to an exact silhouette as the band narrows)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--json", o.json_out, "also write the results to this JSON file");
   try {
     app.parse(argc, argv);
