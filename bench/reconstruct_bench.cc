@@ -222,13 +222,14 @@ struct MatteFrame {
 
 class MatteFrames {
  public:
-  MatteFrames(const BenchOptions& o, const json& truth, const ProxyFile& proxy)
+  // `report`: the workspace's reconstruct_report.json (each frame's band).
+  MatteFrames(const BenchOptions& o, const json& truth, const ProxyFile& proxy, const json& report)
       : o_(o), truth_(truth), ws_(o.workspace),
         cameras_(ReadCamerasFile((ws_ / "calib" / "cameras.json").string())),
-        undistorter_(cameras_.devices.at("view"), cameras_.undistorted_view) {
+        undistorter_(cameras_.devices.at("view"), cameras_.undistorted_view),
+        matting_(StageMattingOptions(ws_)), mattes_(proxy.mattes.size()) {
     const json capture = ReadJsonFile((ws_ / "capture" / "capture.json").string(), "capture", 1);
     for (const json& f : capture.at("view_frames")) source_frame_[f.at("index")] = f.at("source_frame");
-    const json report = ReadJsonFile((ws_ / "reconstruct" / "reconstruct_report.json").string(), "reconstruct_report", 1);
     for (const json& f : report.value("frames", json::array())) {
       if (f.contains("band_px")) band_px_[f.at("view_frame")] = f.at("band_px");
     }
@@ -238,6 +239,9 @@ class MatteFrames {
     RELIT_REQUIRE(!selected_.empty(), ws_.string(), "/reconstruct/proxy.json lists no mattes");
   }
   const std::vector<const ViewMatte*>& selected() const { return selected_; }
+  size_t mattes() const { return mattes_; }  // in the workspace, selected or not
+  // The options the stage matted with (its run.json).
+  const reconstruct::MattingOptions& matting() const { return matting_; }
   double megapixels() const { return cameras_.undistorted_view.width * cameras_.undistorted_view.height / 1e6; }
 
   MatteFrame Load(const ViewMatte& vm) const {
@@ -274,15 +278,15 @@ class MatteFrames {
   fs::path ws_;
   CamerasFile cameras_;
   calib::FrameUndistorter undistorter_;
+  reconstruct::MattingOptions matting_;
+  size_t mattes_;
   std::map<int, int> source_frame_;  // capture index -> rendered video frame
   std::map<std::string, int> band_px_;
   std::vector<const ViewMatte*> selected_;
 };
 
-json MatteComparison(const BenchOptions& o, const json& truth, const render::TriangleMesh& proxy_mesh,
-                     const ProxyFile& proxy) {
-  const MatteFrames matte_frames(o, truth, proxy);
-  const reconstruct::MattingOptions matting = StageMattingOptions(o.workspace);
+json MatteComparison(const BenchOptions& o, const MatteFrames& matte_frames, const render::TriangleMesh& proxy_mesh) {
+  const reconstruct::MattingOptions& matting = matte_frames.matting();
   render::Scene scene;
   scene.AddObject(proxy_mesh, render::Material::Lambert(render::Rgb::Constant(0.5f)), 1);
   scene.Commit();
@@ -327,7 +331,7 @@ json MatteComparison(const BenchOptions& o, const json& truth, const render::Tri
                             : "");
   }
   json out = {{"frames", matte_frames.selected().size()},
-              {"of_mattes", proxy.mattes.size()},
+              {"of_mattes", matte_frames.mattes()},
               {"image_megapixels", megapixels},
               {"binary_silhouette", binary.ToJson(megapixels)},
               {"relit_closed_form", relit.ToJson(megapixels)},
@@ -341,9 +345,8 @@ json MatteComparison(const BenchOptions& o, const json& truth, const render::Tri
 // never below the board) stands in for a proxy of known, uniform error; each
 // frame gets the stage's own band width, matting options and prior (that
 // silhouette), on the same images and GT alpha.
-json OffsetSweep(const BenchOptions& o, const json& truth, const ProxyFile& proxy) {
-  const MatteFrames matte_frames(o, truth, proxy);
-  const reconstruct::MattingOptions matting = StageMattingOptions(o.workspace);
+json OffsetSweep(const BenchOptions& o, const json& truth, const MatteFrames& matte_frames) {
+  const reconstruct::MattingOptions& matting = matte_frames.matting();
   render::TriangleMesh gt_mesh = reconstruct::WeldEqualPositions(GtMesh(o, truth));
   gt_mesh.ComputeVertexNormals();  // every offset moves along the GT's own normals
   std::vector<std::unique_ptr<render::Scene>> scenes;
@@ -489,15 +492,15 @@ int RunReconstructBench(int argc, char** argv) {
   results["proxy"] = ProxyAccuracy(o, truth, mesh);
   if (o.breakdown) results["proxy_breakdown"] = ProxyBreakdown(o.workspace, GtMesh(o, truth), o.chamfer_samples);
   const std::string missing_alpha = MissingAlpha(o, truth);
+  RELIT_REQUIRE(o.offset_sweep_mm.empty() || missing_alpha.empty(), "--offset-sweep needs GT alpha: ", missing_alpha,
+                " is missing");
   if (missing_alpha.empty()) {
-    results["mattes"] = MatteComparison(o, truth, mesh, proxy);
+    const MatteFrames matte_frames(o, truth, proxy, report);
+    results["mattes"] = MatteComparison(o, matte_frames, mesh);
+    if (!o.offset_sweep_mm.empty()) results["offset_sweep"] = OffsetSweep(o, truth, matte_frames);
   } else {
     results["mattes"] = {{"skipped", "no GT alpha " + missing_alpha +
                                          ": --synth must be the relit-synth output with truth/view_alpha"}};
-  }
-  if (!o.offset_sweep_mm.empty()) {
-    RELIT_REQUIRE(missing_alpha.empty(), "--offset-sweep needs GT alpha: ", missing_alpha, " is missing");
-    results["offset_sweep"] = OffsetSweep(o, truth, proxy);
   }
   PrintTable(results["proxy"], results["mattes"]);
   if (results.contains("offset_sweep")) PrintOffsetSweep(results["offset_sweep"]);
