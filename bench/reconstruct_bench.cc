@@ -43,6 +43,7 @@
 #include "core/image.h"
 #include "core/json_file.h"
 #include "core/main_wrapper.h"
+#include "core/progress.h"
 #include "core/render/mesh.h"
 #include "core/render/scene.h"
 #include "core/workspace.h"
@@ -361,6 +362,7 @@ json OffsetSweep(const BenchOptions& o, const json& truth, const MatteFrames& ma
     scenes.back()->Commit();
   }
   std::vector<MethodErrors> binary(scenes.size()), matte(scenes.size());
+  Progress progress("offset sweep", static_cast<int64_t>(matte_frames.selected().size()));
   for (const ViewMatte* vm : matte_frames.selected()) {
     const MatteFrame m = matte_frames.Load(*vm);
     RELIT_REQUIRE(o.sweep_band_px > 0 || m.band_px > 0, o.workspace,
@@ -374,6 +376,7 @@ json OffsetSweep(const BenchOptions& o, const json& truth, const MatteFrames& ma
       const cv::Mat trimap = reconstruct::MakeTrimap(silhouette, o.sweep_band_px > 0 ? o.sweep_band_px : m.band_px);
       matte[k].Add(reconstruct::SolveClosedFormMatte(m.colour, trimap, prior, matting, &stats), m.gt, m.unknown, 0);
     }
+    progress.Advance();
   }
   json rows = json::array();
   for (size_t k = 0; k < scenes.size(); ++k) {
@@ -469,6 +472,8 @@ int RunReconstructBench(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
+  RELIT_REQUIRE(o.sweep_band_px == 0 || !o.offset_sweep_mm.empty(),
+                "--sweep-band-px only sets the offset sweep's band: add --offset-sweep (e.g. --offset-sweep=0,2)");
   const fs::path ws(o.workspace);
   if (!o.truth_cameras.empty()) {
     WriteTruthCameraWorkspace(o.workspace, o.synth, o.truth_cameras);
