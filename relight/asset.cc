@@ -35,6 +35,7 @@ AssetDescription DescribeWorkspace(const std::string& workspace, ModelSet models
   asset.flash_intensity = cues.flash_intensity;
   asset.cue_max_depth = cues.max_depth;
   asset.mesh = (root / cues.mesh).string();
+  asset.support_plane = cues.support_plane;
   double distance = 0;
   for (const CueFrameRecord& f : cues.frames) {
     distance += (f.cam_from_world.Inverse().translation - plan.object_centre_m).norm();
@@ -69,6 +70,7 @@ AssetDescription ReadAsset(const std::string& dir) {
   const json& cues = JsonField(j, "cues", path);
   asset.flash_intensity = JsonNumber(cues, "light_unit_w_per_sr", path);
   asset.cue_max_depth = JsonInt(cues, "max_depth", path);
+  asset.support_plane = SupportPlane::FromJson(cues.value("support_plane", json()), path);
   asset.mesh = (root / JsonField(j, "mesh", path).get<std::string>()).string();
   for (const json& p : JsonField(j, "partitions", path)) {
     const std::string model = p.value("model", std::string());
@@ -136,7 +138,8 @@ void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRe
                    {"input", format.input},
                    {"roughness", "GGX alpha (no squaring), specular F0 = 1"},
                    {"light_unit_w_per_sr", asset.flash_intensity},
-                   {"max_depth", asset.cue_max_depth}}},
+                   {"max_depth", asset.cue_max_depth},
+                   {"support_plane", asset.support_plane.ToJson()}}},
                  {"mesh", "proxy.obj"},
                  {"partitions", partitions},
                  {"relit_version", RelitVersion()}});

@@ -20,6 +20,7 @@
 
 #include "core/camera.h"
 #include "relight/partitions.h"
+#include "relight/support_plane.h"
 
 namespace relit {
 class RunRecord;
@@ -38,6 +39,7 @@ struct AssetDescription {
   double flash_intensity = 1;        // W/sr of the cue light = the unit of light intensities
   int cue_max_depth = 4;             // bounces the cues were rendered with
   std::string mesh;                  // absolute path of the proxy mesh
+  SupportPlane support_plane;        // context geometry of every cue scene (support_plane.h)
   std::vector<std::string> partition_models;  // absolute checkpoint folders; "" = not trained
 };
 

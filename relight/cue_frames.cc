@@ -134,7 +134,7 @@ nlohmann::json CueLight::ToJson() const {
   return {};
 }
 
-std::unique_ptr<render::Scene> LoadProxyScene(const std::string& mesh_path) {
+std::unique_ptr<render::Scene> LoadProxyScene(const std::string& mesh_path, const SupportPlane& plane) {
   RELIT_REQUIRE(std::filesystem::exists(mesh_path), "proxy mesh ", mesh_path,
                 " does not exist: run the reconstruct stage first");
   render::TriangleMesh mesh = render::LoadMesh(mesh_path);
@@ -143,7 +143,8 @@ std::unique_ptr<render::Scene> LoadProxyScene(const std::string& mesh_path) {
   if (!mesh.has_normals()) mesh.ComputeVertexNormals();
   auto scene = std::make_unique<render::Scene>();
   // The cue renderer ignores materials; object id 1 marks the proxy in alpha.
-  scene->AddObject(std::move(mesh), render::Material::Lambert(render::Rgb::Constant(0.5f)), 1);
+  scene->AddObject(std::move(mesh), render::Material::Lambert(render::Rgb::Constant(0.5f)), kProxyObjectId);
+  AddSupportPlane(plane, scene.get());
   scene->Commit();
   return scene;
 }
@@ -151,11 +152,16 @@ std::unique_ptr<render::Scene> LoadProxyScene(const std::string& mesh_path) {
 namespace {
 
 // The channels after the light channels: uv, its screen derivatives, alpha.
+// A pixel centre on a context object (the support plane) is background: no uv.
 void WriteGeometryChannels(const render::RenderResult& result, int x, int y, float* geometry) {
+  geometry[6] = result.alpha.at(x, y, 0);
+  if (result.object_id.at(x, y, 0) != kProxyObjectId) {
+    for (int c = 0; c < 6; ++c) geometry[c] = 0;
+    return;
+  }
   geometry[0] = result.uv.at(x, y, 0);
   geometry[1] = result.uv.at(x, y, 1);
   for (int c = 0; c < 4; ++c) geometry[2 + c] = result.uv_derivatives.at(x, y, c);
-  geometry[6] = result.alpha.at(x, y, 0);
 }
 
 // The sh format: primary rays only (coverage, uv, positions), then the SH
@@ -172,7 +178,7 @@ Image RenderShFrame(const render::Scene& scene, const Camera& camera, const CueL
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
       float* out = frame.pixel(x, y);
-      if (result.object_id.at(x, y, 0) >= 0) {  // 0 where the centre ray misses (coverage may be > 0)
+      if (result.object_id.at(x, y, 0) == kProxyObjectId) {  // 0 where the centre ray misses (coverage may be > 0)
         const Eigen::Vector3d p(result.position.at(x, y, 0), result.position.at(x, y, 1), result.position.at(x, y, 2));
         sh.PixelFeatures(p, centre, out);
       }
@@ -213,7 +219,7 @@ Image RenderCueFrame(render::Scene& scene, const Camera& camera, const CueLight&
   options.seed = settings.seed;
   // The network sees the object only; an environment seen behind it is not a cue.
   options.environment_visible = false;
-  options.alpha_object_ids = {1};
+  options.alpha_object_ids = {kProxyObjectId};
   if (format.is_sh()) return RenderShFrame(scene, camera, light, options);
   const render::RenderResult result = render::RenderCues(scene, camera, options, SelectBases(format.bases));
   const int width = result.radiance.width(), height = result.radiance.height();

@@ -25,8 +25,12 @@
 #include "core/camera.h"
 #include "core/image.h"
 #include "core/render/scene.h"
+#include "relight/support_plane.h"
 
 namespace relit::relight {
+
+// Object id of the proxy in cue scenes (alpha, uv); other objects are context.
+constexpr int kProxyObjectId = 1;
 
 // What a cue frame holds for the networks (docs/relight.md, "Baselines").
 struct CueFormat {
@@ -92,7 +96,7 @@ Image ReadCueFrame(const std::string& path, const CueFormat& format = {});
 
 // The proxy mesh (OBJ with UVs, world frame) as a cue scene. Throws
 // relit::Error naming the file when it cannot be read or has no UVs.
-std::unique_ptr<render::Scene> LoadProxyScene(const std::string& mesh_path);
+std::unique_ptr<render::Scene> LoadProxyScene(const std::string& mesh_path, const SupportPlane& plane = {});
 
 // Renders one cue frame (channels as format.Channels()). Replaces the
 // scene's lights with `light`. Not thread-safe for the same scene (the

@@ -47,6 +47,7 @@ CuesFile ReadCuesFile(const std::string& path) {
     if (j.contains(key)) format[key] = j[key];
   }
   file.format = CueFormat::FromJson(format, path);
+  file.support_plane = SupportPlane::FromJson(j.value("support_plane", json()), path);
   for (const json& f : JsonField(j, "frames", path)) {
     const std::string where = path + ": frames[" + std::to_string(file.frames.size()) + "]";
     CueFrameRecord r;
@@ -75,6 +76,7 @@ void WriteCuesFile(const std::string& path, const CuesFile& file) {
                  {"flash_intensity", file.flash_intensity},
                  {"samples_per_pixel", file.samples_per_pixel},
                  {"max_depth", file.max_depth},
+                 {"support_plane", file.support_plane.ToJson()},
                  {"channels", file.format.Channels()},
                  {"input", file.format.input},
                  {"bases", file.format.is_sh() ? std::vector<std::string>{} : file.format.bases},
@@ -163,7 +165,17 @@ CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions&
     threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                     options.threads);
   }
-  auto scene = LoadProxyScene(mesh_path.string());
+  if (options.support_plane) {
+    cues.support_plane.enabled = true;
+    cues.support_plane.board = cameras.board;
+    cues.support_plane.paper_albedo = options.paper_albedo;
+    cues.support_plane.ink_albedo = options.ink_albedo;
+    cues.support_plane.paper_margin_m = options.paper_margin_m;
+    cues.support_plane.table_albedo = Eigen::Vector3d(options.table_albedo.data());
+    cues.support_plane.table_half_size_m = std::max(1.5, 20 * proxy.object_radius_m);
+    cues.support_plane.Check(cameras_path.string());
+  }
+  auto scene = LoadProxyScene(mesh_path.string(), cues.support_plane);
   CueRenderSettings settings;
   settings.samples_per_pixel = options.samples_per_pixel;
   settings.max_depth = options.max_depth;

@@ -17,6 +17,7 @@
 #include "core/camera.h"
 #include "relight/cue_frames.h"
 #include "relight/stage_options.h"
+#include "relight/support_plane.h"
 
 namespace relit {
 class RunRecord;
@@ -41,6 +42,7 @@ struct CuesFile {
   int samples_per_pixel = 0;
   int max_depth = 0;
   CueFormat format;               // "input"/"bases"; absent in older files = the default
+  SupportPlane support_plane;     // context geometry of the cue scene; absent in older files = none
   std::vector<CueFrameRecord> frames;
 };
 CuesFile ReadCuesFile(const std::string& path);

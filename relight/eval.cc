@@ -139,8 +139,15 @@ TruthEvalSet ReadTruthEvalSet(const std::string& truth_json) {
       RELIT_REQUIRE(images.contains(light.name), at, ": no image for light ", light.name);
       view.images[light.name] = (root / images[light.name].get<std::string>()).string();
     }
+    if (v.contains("images_twin")) {
+      const json& twins = JsonField(v, "images_twin", at);
+      for (const TruthLight& light : set.lights) {
+        if (twins.contains(light.name)) view.twins[light.name] = (root / twins[light.name].get<std::string>()).string();
+      }
+    }
     std::vector<std::string> files = {view.alpha};
     for (const auto& [name, path] : view.images) files.push_back(path);
+    for (const auto& [name, path] : view.twins) files.push_back(path);
     for (const std::string& file : files) {
       RELIT_REQUIRE(fs::exists(file), "ground-truth image ", file, " is missing (listed in ", truth_json,
                     " for view ", view.name, "); re-render the capture with relit-synth");
@@ -205,6 +212,39 @@ void RequireSize(const Image& image, const Intrinsics& intrinsics, const std::st
   RELIT_REQUIRE(image.width() == intrinsics.width && image.height() == intrinsics.height, path, " is ",
                 image.width(), "x", image.height(), ", truth.json's eval intrinsics say ", intrinsics.width, "x",
                 intrinsics.height);
+}
+
+// The truth's own noise: its twin (same image, independent seed) scored as a
+// method would be. The pair's difference holds both renders' noise, twice
+// one render's variance, so the floor is half the pair's MSE: the score a
+// perfect prediction of the converged image would get against this truth.
+EvalImageResult TruthNoiseFloor(const TruthView& view, const TruthLight& light, const Image& reference,
+                                const Image& matte, const TruthEvalSet& truth, double clip_radiance) {
+  const std::string& path = view.twins.at(light.name);
+  Image twin = ReadImage(path);
+  RELIT_REQUIRE(twin.channels() >= 3, path, " has ", twin.channels(), " channels, expected RGB");
+  RequireSize(twin, truth.intrinsics, path);
+  twin = Scaled(twin.SelectChannels(std::vector<int>{0, 1, 2}), truth.exposure);
+  ClipRadiance(&twin, clip_radiance);
+  Image premultiplied(twin.width(), twin.height(), 4);
+  for (int y = 0; y < twin.height(); ++y) {
+    for (int x = 0; x < twin.width(); ++x) {
+      const float a = matte.at(x, y, 0);
+      for (int c = 0; c < 3; ++c) premultiplied.at(x, y, c) = twin.at(x, y, c) * a;
+      premultiplied.at(x, y, 3) = a;
+    }
+  }
+  EvalImageResult r;
+  r.view = view.name;
+  r.light = light.name;
+  r.light_type = light.type;
+  r.method = kTruthNoiseFloor;
+  r.metrics = CompareToReference(premultiplied, reference, matte);
+  r.metrics.mse /= 2;
+  r.metrics.mae /= std::sqrt(2.0);
+  r.metrics.psnr_db = r.metrics.mse > 0 ? 10 * std::log10(1 / r.metrics.mse) : 99;
+  r.ssim = ForegroundSsim(premultiplied, reference, matte);
+  return r;
 }
 
 }  // namespace
@@ -289,7 +329,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
   CueRenderSettings settings;
   settings.samples_per_pixel = options.samples_per_pixel > 0 ? options.samples_per_pixel : render.samples_per_pixel;
   settings.max_depth = asset.cue_max_depth;  // the cues the networks were trained on
-  const std::unique_ptr<render::Scene> scene = LoadProxyScene(asset.mesh);
+  const std::unique_ptr<render::Scene> scene = LoadProxyScene(asset.mesh, asset.support_plane);
   const int training_spp = ReadCuesFile((root / "relight/cues/cues.json").string()).samples_per_pixel;
   if (training_spp != settings.samples_per_pixel) {
     spdlog::warn("eval: cue frames at {} spp, the training cues had {} (the networks' output shifts with the cues' "
@@ -311,7 +351,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
       options.max_views > 0 ? std::min<size_t>(options.max_views, truth.views.size()) : truth.views.size();
 
   AtomicDir out(out_dir);
-  std::vector<EvalImageResult> results;
+  std::vector<EvalImageResult> results, floors;
   Progress progress("eval", static_cast<int64_t>(view_count * truth.lights.size()));
   for (size_t v = 0; v < view_count; ++v) {
     const TruthView& view = truth.views[v];
@@ -333,6 +373,9 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
       {
         auto timer = record.Time("cues");
         cues = RenderCueFrame(*scene, camera, ToCueLight(light, unit_factor), settings, format);
+      }
+      if (view.twins.count(light.name) > 0) {
+        floors.push_back(TruthNoiseFloor(view, light, reference, matte, truth, options.clip_radiance));
       }
       const std::string stem = light.name;
       if (options.write_images) WriteReferencePng((image_dir / (stem + "_gt.png")).string(), reference, matte);
@@ -396,7 +439,10 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
       {"models", asset.partition_models},
       {"options", options.ToJson()},
       {"timings_s", record.ToJson()["timings_s"]}};
-  WriteEvalReport(out.path().string(), results, methods, header);
+  if (floors.empty()) spdlog::warn("eval: {} lists no noise twins of its images: the truth's noise floor is not measured "
+                                   "(render the capture with a relit-synth that writes them, eval_noise_twin: true)",
+                                   truth_json);
+  WriteEvalReport(out.path().string(), results, methods, header, floors);
   record.Set("images", static_cast<int>(view_count * truth.lights.size()));
   record.Set("methods", methods);
   record.Write((out.path() / "run.json").string());

@@ -83,6 +83,9 @@ struct TruthView {
   Rigid3 cam_from_world;
   std::string alpha;                // absolute path
   std::map<std::string, std::string> images;  // light name -> absolute path
+  // light name -> a second render with an independent seed (truth.json
+  // "images_twin"; absent in older captures): the truth's noise floor.
+  std::map<std::string, std::string> twins;
   double min_angle_to_training_rad = 0;
 };
 
@@ -121,8 +124,14 @@ struct EvalImageResult {
 
 // Writes OUT/eval.json and OUT/eval.md (eval_report.cc). `header` holds the
 // fields besides the metrics (methods, light unit, options, timings).
+// `floors`: the truth's noise floor per image (method kTruthNoiseFloor), or
+// none when the truth has no twins.
 void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResult>& results,
-                     const std::vector<std::string>& methods, nlohmann::json header);
+                     const std::vector<std::string>& methods, nlohmann::json header,
+                     const std::vector<EvalImageResult>& floors = {});
+
+// Method name of the truth's noise floor rows (eval.json, eval.md).
+inline constexpr const char* kTruthNoiseFloor = "truth_noise_floor";
 
 // PNG helpers (eval_report.cc): premultiplied RGBA over grey, sRGB; GT RGB
 // x matte over the same grey; |pred - GT x matte| x scale (linear, clipped).

@@ -152,7 +152,8 @@ void WriteErrorPng(const std::string& path, const Image& rgba, const Image& refe
 }
 
 void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResult>& results,
-                     const std::vector<std::string>& methods, json header) {
+                     const std::vector<std::string>& methods, json header,
+                     const std::vector<EvalImageResult>& floors) {
   const std::vector<std::string> types = LightTypes(results);
   json summary = json::array();
   for (const std::string& method : methods) {
@@ -175,6 +176,24 @@ void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResu
       row["reference_png"] = r.reference_png;
     }
     images.push_back(row);
+  }
+  if (!floors.empty()) {
+    json floor_rows = json::object();
+    std::vector<std::string> columns = types;
+    columns.push_back("all");
+    for (const std::string& type : columns) {
+      const Pooled p = Pool(floors, kTruthNoiseFloor, type);
+      if (p.images > 0) floor_rows[type] = {{"psnr_db", p.metrics.psnr_db}, {"mae", p.metrics.mae}, {"images", p.images}};
+    }
+    json per_image = json::array();
+    for (const EvalImageResult& r : floors) {
+      per_image.push_back({{"view", r.view}, {"light", r.light}, {"psnr_db", r.metrics.psnr_db}});
+    }
+    header["truth_noise_floor"] = {
+        {"note", "the truth against its twin (independent seed), MSE halved: the score a perfect prediction of the "
+                 "converged image gets; claimed scores should stay >= 6 dB below it"},
+        {"per_light_type", floor_rows},
+        {"images", per_image}};
   }
   header["light_types"] = types;
   header["metrics"] =
@@ -215,6 +234,16 @@ void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResu
     for (const std::string& t : types) md += " " + Cell(Pool(results, method, t)) + " |";
     const Pooled all = Pool(results, method, "all");
     md += " " + Cell(all) + " | " + fmt::format("{:.4f}", all.metrics.alpha_mae) + " |\n";
+  }
+  if (!floors.empty()) {
+    md += "| truth noise floor |";
+    for (const std::string& t : types) md += " " + Cell(Pool(floors, kTruthNoiseFloor, t)) + " |";
+    md += " " + Cell(Pool(floors, kTruthNoiseFloor, "all")) + " | |\n";
+    md += "\nTruth noise floor: each eval image against a second render with an independent seed, MSE halved = "
+          "the score a perfect prediction of the converged image would get. Scores within ~6 dB of it are "
+          "limited by the truth's noise, not by the method.\n";
+  } else {
+    md += "\nTruth noise floor: not measured (the truth has no twin renders).\n";
   }
   md += "\n## Per image (PSNR dB / MAE / SSIM)\n\n| view | light |";
   for (const std::string& m : methods) md += " " + m + " |";

@@ -43,15 +43,21 @@ double Seconds(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-void PrepareWorkspace(const std::string& dir, int frames, int width_px) {
+void PrepareWorkspace(const std::string& dir, int frames, int width_px, bool support_plane, int target_spp,
+                      int cue_spp) {
   if (fs::exists(fs::path(dir) / "relight/plan/plan.json")) return;
   testing::TestWorkspaceOptions o;
   o.frames = frames;
   o.width_px = width_px;
+  o.samples_per_pixel = target_spp;
   testing::MakeTestWorkspace(dir, o);
   RunRecord record("bench");
   CueStageOptions cues;
-  cues.samples_per_pixel = 8;
+  cues.samples_per_pixel = cue_spp;
+  if (support_plane) {  // the synthetic scene's board and table (its wood's diffuse part)
+    cues.support_plane = true;
+    cues.table_albedo = {0.22, 0.14, 0.08};
+  }
   RunCueStage(dir, cues, record);
   DatasetOptions dataset;
   dataset.holdout_every = 4;
@@ -93,12 +99,17 @@ int Run(int argc, char** argv) {
   app.add_option("--crop", training.optimizer.crop_px);
   app.add_option("--lr", training.optimizer.learning_rate);
   app.add_option("--seed", training.optimizer.seed);
+  bool support_plane = false;
+  int target_spp = 16, cue_spp = 8;
+  app.add_option("--target-spp", target_spp, "path-traced samples of the target frames (new --dir)");
+  app.add_option("--cue-spp", cue_spp, "samples of the cue frames (new --dir)");
+  app.add_flag("--support-plane", support_plane, "cues with the board and table as context geometry (new --dir)");
   std::string dump;
   app.add_option("--dump", dump, "write target / model / baseline EXRs of the held-out frames here");
   CLI11_PARSE(app, argc, argv);
   training.steps = steps;
 
-  PrepareWorkspace(dir, frames, width);
+  PrepareWorkspace(dir, frames, width, support_plane, target_spp, cue_spp);
   const Plan plan = ReadPlan(dir + "/relight/plan/plan.json");
   std::vector<float> values;
   for (const PlanFrame& f : plan.frames) {

@@ -1,5 +1,6 @@
 #include "relight/stage_options.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/error.h"
@@ -15,6 +16,11 @@ void CueStageOptions::Read(OptionsReader& r) {
   r.ReadRange("threads", &threads, 0, 1024);
   r.Read("input", &input);
   r.Read("bases", &bases);
+  r.Read("support_plane", &support_plane);
+  r.ReadRange("paper_albedo", &paper_albedo, 0.0, 1.0);
+  r.ReadRange("ink_albedo", &ink_albedo, 0.0, 1.0);
+  r.ReadRange("paper_margin_m", &paper_margin_m, 0.0, 1.0);
+  r.Read("table_albedo", &table_albedo);
   r.Finish();
   Check();
 }
@@ -26,6 +32,12 @@ void CueStageOptions::Check() const {
                 "cues.flash_intensity must be > 0, got ", flash_intensity);
   RELIT_REQUIRE(threads >= 0, "cues.threads must be >= 0 (0 = all cores)");
   Format().Check();
+  RELIT_REQUIRE(ink_albedo <= paper_albedo, "cues.ink_albedo (", ink_albedo, ") must not exceed cues.paper_albedo (",
+                paper_albedo, ")");
+  RELIT_REQUIRE(table_albedo.size() == 3 && std::all_of(table_albedo.begin(), table_albedo.end(),
+                                                        [](double a) { return a >= 0 && a <= 1; }),
+                "cues.table_albedo must be 3 linear RGB values in [0, 1]");
+  RELIT_REQUIRE(!support_plane || !Format().is_sh(), "cues.support_plane needs cues.input: radiance");
 }
 
 nlohmann::json CueStageOptions::ToJson() const {
@@ -35,6 +47,13 @@ nlohmann::json CueStageOptions::ToJson() const {
                       {"flash_intensity", flash_intensity},
                       {"threads", threads}};
   if (!Format().is_default()) j.update(Format().ToJson());
+  if (support_plane) {  // only when on: records of older runs stay equal
+    j["support_plane"] = true;
+    j["paper_albedo"] = paper_albedo;
+    j["ink_albedo"] = ink_albedo;
+    j["paper_margin_m"] = paper_margin_m;
+    j["table_albedo"] = table_albedo;
+  }
   return j;
 }
 

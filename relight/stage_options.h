@@ -33,6 +33,13 @@ struct CueStageOptions {
   // basis materials of the radiance cues (the 1-vs-5 basis ablation).
   std::string input = CueFormat::kRadiance;
   std::vector<std::string> bases = CueFormat::DefaultBasisNames();
+  // The board and table as context geometry of the cue scene (support_plane.h):
+  // the cues then hold the flash's bounce off the table and the shadows on it.
+  bool support_plane = false;
+  double paper_albedo = 0.8;     // linear albedo of the board's white paper
+  double ink_albedo = 0.03;      // of its printed black
+  double paper_margin_m = 0.01;  // white paper around the printed squares
+  std::vector<double> table_albedo = {0.2, 0.2, 0.2};  // linear RGB beyond the paper
 
   CueFormat Format() const { return {input, bases}; }
   void Read(OptionsReader& reader);

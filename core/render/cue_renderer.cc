@@ -40,6 +40,41 @@ float MixturePdf(const std::vector<CueBasis>& basis, const Vec3f& wo, const Vec3
   for (const CueBasis& b : basis) sum += PdfBsdf(b.bsdf, wo, wi);
   return sum / basis.size();
 }
+
+// One path vertex on a context surface with its own BSDF: a light sample
+// (MIS against that BSDF's pdf) added to every cue, then a direction from
+// the BSDF; every basis' throughput gets the same factor. *bsdf_pdf < 0 on
+// return when the path ends.
+template <typename Add>
+void TraceContextVertex(const Scene& scene, const BsdfParams& bsdf, const Hit& hit, const Vec3f& ng,
+                        const Frame& frame, const Vec3f& wo, int k_count, Rng& rng, Rgb* throughput,
+                        Vec3f* origin, Vec3f* direction, float* bsdf_pdf, const Add& add) {
+  LightSample ls;
+  float select_pdf = 0;
+  if (SampleOneLight(scene, hit.position, rng, &ls, &select_pdf) && ng.dot(ls.wi) > 0 &&
+      Unoccluded(scene, hit.position, ng, ls)) {
+    const Vec3f wi = frame.ToLocal(ls.wi);
+    if (wi.z() > 0) {
+      float scale = wi.z() / select_pdf;
+      if (!ls.delta) {
+        const float light_pdf = select_pdf * ls.pdf;
+        scale = wi.z() * PowerHeuristic(light_pdf, PdfBsdf(bsdf, wo, wi)) / light_pdf;
+      }
+      const Rgb contribution = EvalBsdf(bsdf, wo, wi) * ls.radiance * scale;
+      for (int k = 0; k < k_count; ++k) add(k, throughput[k] * contribution);
+    }
+  }
+  *bsdf_pdf = -1;
+  BsdfSample bs;
+  const float u_lobe = rng.Uniform();
+  if (!SampleBsdf(bsdf, wo, u_lobe, rng.Uniform2(), &bs)) return;
+  const Vec3f wi_world = frame.ToWorld(bs.wi);
+  if (ng.dot(wi_world) <= 0 || !(bs.pdf > 0)) return;
+  for (int k = 0; k < k_count; ++k) throughput[k] *= bs.weight;
+  *bsdf_pdf = bs.pdf;
+  *origin = OffsetOrigin(hit.position, ng, wi_world);
+  *direction = wi_world;
+}
 }  // namespace
 
 void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec3f& origin_in,
@@ -55,6 +90,15 @@ void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec
   };
   Vec3f origin = origin_in, direction = direction_in.normalized();
   float bsdf_pdf = -1;  // < 0: camera ray
+  // Objects outside alpha_object_ids are context (the support plane): they
+  // keep their own material in every cue, so the cues hold the light they
+  // bounce onto the proxy and the shadows they cast, and a camera ray that
+  // sees one first is background (no cue).
+  auto is_context = [&](int object_id) {
+    return !options.alpha_object_ids.empty() &&
+           std::find(options.alpha_object_ids.begin(), options.alpha_object_ids.end(), object_id) ==
+               options.alpha_object_ids.end();
+  };
 
   for (int bounce = 0;; ++bounce) {
     Hit hit;
@@ -71,6 +115,8 @@ void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec
       return;
     }
     if (bounce >= options.max_depth) return;
+    const bool context = is_context(hit.object_id);
+    if (context && bounce == 0) return;
 
     Vec3f ng = hit.geometric_normal, ns = hit.shading_normal;
     if (ng.dot(direction) > 0) ng = -ng;
@@ -78,6 +124,20 @@ void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec
     const Frame frame(ns);
     const Vec3f wo = frame.ToLocal(-direction);
     if (wo.z() <= 0) return;
+
+    if (context) {
+      TraceContextVertex(scene, scene.material(hit.material).At(hit.uv), hit, ng, frame, wo, k_count, rng,
+                         throughput, &origin, &direction, &bsdf_pdf, add);
+      if (bsdf_pdf < 0) return;
+      if (bounce + 1 >= options.russian_roulette_depth) {
+        float max_throughput = 0;
+        for (int k = 0; k < k_count; ++k) max_throughput = std::max(max_throughput, throughput[k].maxCoeff());
+        const float q = std::min(0.95f, max_throughput);
+        if (rng.Uniform() >= q) return;
+        for (int k = 0; k < k_count; ++k) throughput[k] /= q;
+      }
+      continue;
+    }
 
     // One light sample, evaluated with every basis BSDF.
     LightSample ls;

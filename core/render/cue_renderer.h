@@ -37,7 +37,10 @@ void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec
 
 // Renders all cues for one camera. RenderResult::radiance holds 3 x basis
 // channels; alpha, uv, uv derivatives and the other AOVs are as RenderImage's.
-// The scene's own materials are ignored.
+// The scene's materials are ignored, except on context objects: with
+// options.alpha_object_ids set, any other object keeps its own material in
+// every cue (light it bounces onto the proxy, shadows it casts) and a camera
+// ray that hits one first adds nothing (background).
 RenderResult RenderCues(const Scene& scene, const Camera& camera, const RenderOptions& options,
                         const std::vector<CueBasis>& basis = DefaultCueBasis(),
                         const RenderProgress& progress = {});

@@ -120,5 +120,58 @@ TEST(CueRenderer, SharesAovsWithPathTracer) {
   EXPECT_EQ(a.uv_derivatives.data(), b.uv_derivatives.data());
 }
 
+// Context objects (outside alpha_object_ids) keep their own material in every
+// cue: the sphere's cues must equal a path-traced render of the sphere in
+// that basis material standing on the plane with the plane's own material;
+// a camera ray that sees the plane first adds nothing.
+TEST(CueRenderer, ContextObjectKeepsItsMaterialAndIsBackground) {
+  const Material plane_material = Material::Lambert(Rgb(0.7f, 0.5f, 0.3f));
+  auto build = [&](const Material& sphere_material, bool with_plane, Scene* scene) {
+    scene->AddObject(MakeSphere(Vec3f(0, 0, 0.2f), 0.2f, 48, 24), sphere_material, 1);
+    if (with_plane) {
+      scene->AddObject(MakeQuad(Vec3f::Zero(), Vec3f::UnitX(), Vec3f::UnitY(), 0.6f, 0.6f), plane_material, 2);
+    }
+    scene->AddLight(PointLight{Vec3f(0.3f, -0.4f, 0.8f), Rgb::Constant(1.0f)});
+    scene->Commit();
+  };
+  RenderOptions options;
+  options.samples_per_pixel = 64;
+  options.max_depth = 4;
+  options.alpha_object_ids = {1};
+  const Camera camera = LookingAt({0.6, -0.9, 0.25}, 20);
+  Scene cue_scene, bare_scene;
+  build(Material::Lambert(Rgb::Ones()), true, &cue_scene);
+  build(Material::Lambert(Rgb::Ones()), false, &bare_scene);
+  const RenderResult cues = RenderCues(cue_scene, camera, options);
+  const RenderResult bare = RenderCues(bare_scene, camera, options);
+  Scene reference_scene;
+  build(Material::Lambert(Rgb::Ones()), true, &reference_scene);
+  RenderOptions reference_options = options;
+  reference_options.seed = 99;
+  const RenderResult reference = RenderImage(reference_scene, camera, reference_options);
+  double cue_sum = 0, ref_sum = 0, bare_sum = 0;
+  int sphere_pixels = 0, plane_pixels = 0;
+  for (int y = 0; y < 20; ++y) {
+    for (int x = 0; x < 20; ++x) {
+      if (cues.alpha.at(x, y, 0) == 1.0f) {
+        ++sphere_pixels;
+        for (int c = 0; c < 3; ++c) {
+          cue_sum += cues.radiance.at(x, y, c);
+          ref_sum += reference.radiance.at(x, y, c);
+          bare_sum += bare.radiance.at(x, y, c);
+        }
+      } else if (cues.alpha.at(x, y, 0) == 0.0f && cues.object_id.at(x, y, 0) == 2) {
+        ++plane_pixels;
+        for (int k = 0; k < 15; ++k) EXPECT_EQ(cues.radiance.at(x, y, k), 0.0f) << x << "," << y;
+      }
+    }
+  }
+  ASSERT_GT(sphere_pixels, 50);
+  ASSERT_GT(plane_pixels, 20);
+  EXPECT_NEAR(cue_sum, ref_sum, 0.02 * ref_sum);
+  // The plane's bounce is a visible share of the sphere's light from this low view.
+  EXPECT_GT(cue_sum, 1.05 * bare_sum);
+}
+
 }  // namespace
 }  // namespace relit::render

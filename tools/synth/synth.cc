@@ -182,6 +182,12 @@ int RenderEvalSet(const SynthOptions& o, const CapturePlan& plan, const SynthSce
           FrameRenderOptions(o.eval_samples_per_pixel, o.max_depth, SubSeed(o.seed, stream), alpha_ids));
       WriteImage((root / EvalImagePath(view.name, light.name)).string(), result.radiance,
                  PixelStorage::kHalf);
+      if (o.eval_noise_twin) {  // the same image with an independent seed: the truth's noise floor
+        const render::RenderResult twin = render::RenderImage(
+            *scene, camera,
+            FrameRenderOptions(o.eval_samples_per_pixel, o.max_depth, SubSeed(o.seed, stream + 500000), alpha_ids));
+        WriteImage((root / EvalTwinImagePath(view.name, light.name)).string(), twin.radiance, PixelStorage::kHalf);
+      }
       if (l == 0) {
         WriteImage((root / EvalAlphaPath(view.name)).string(), AlphaChannel(result),
                    PixelStorage::kHalf);

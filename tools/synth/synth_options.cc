@@ -122,6 +122,7 @@ void SynthOptions::Read(OptionsReader& r) {
   r.ReadRange("clap_count", &clap_count, 1, 100);
   r.ReadRange("eval_views", &eval_views, 0, 1000);
   r.ReadRange("eval_samples_per_pixel", &eval_samples_per_pixel, 1, 1 << 16);
+  r.Read("eval_noise_twin", &eval_noise_twin);
   r.ReadRange("eval_point_lights", &eval_point_lights, 0, 100);
   r.ReadRange("eval_directional_lights", &eval_directional_lights, 0, 100);
   r.ReadRange("envmap_width_px", &envmap_width_px, 16, 16384);
@@ -227,6 +228,7 @@ nlohmann::json SynthOptions::ToJson() const {
       {"audio_offset_min_s", audio_offset_min_s}, {"audio_offset_max_s", audio_offset_max_s},
       {"clap_count", clap_count}, {"eval_views", eval_views},
       {"eval_samples_per_pixel", eval_samples_per_pixel},
+      {"eval_noise_twin", eval_noise_twin},
       {"eval_point_lights", eval_point_lights},
       {"eval_directional_lights", eval_directional_lights},
       {"envmap_width_px", envmap_width_px}, {"eval_min_angle_deg", eval_min_angle_deg},

@@ -82,6 +82,9 @@ struct SynthOptions {
   // Evaluation set.
   int eval_views = 3;
   int eval_samples_per_pixel = 16;
+  // A second render of every eval image with an independent seed, so eval
+  // can measure the truth's own noise floor (relight.md, "Evaluation").
+  bool eval_noise_twin = true;
   int eval_point_lights = 2;
   int eval_directional_lights = 2;
   int envmap_width_px = 512;

@@ -59,6 +59,10 @@ std::string BoardClipFramePath(const std::string& phone, int frame) {
 std::string EvalImagePath(const std::string& view, const std::string& light) {
   return "eval/" + view + "/" + light + ".exr";
 }
+std::string EvalTwinImagePath(const std::string& view, const std::string& light) {
+  return "eval/" + view + "/" + light + ".twin.exr";
+}
+
 std::string EvalAlphaPath(const std::string& view) { return "eval/" + view + "/alpha.exr"; }
 std::string EnvmapPath(const std::string& name) { return "eval/envmaps/" + name + ".exr"; }
 std::string MeshPath(const std::string& object) { return "truth/meshes/" + object + ".obj"; }
@@ -204,13 +208,18 @@ nlohmann::json MakeTruthJson(const SynthOptions& o, const SynthScene& scene, con
   nlohmann::json views = nlohmann::json::array();
   for (const EvalView& view : plan.eval_views) {
     nlohmann::json images = nlohmann::json::object();
-    for (const EvalLight& light : plan.eval_lights) images[light.name] = EvalImagePath(view.name, light.name);
+    nlohmann::json twins = nlohmann::json::object();
+    for (const EvalLight& light : plan.eval_lights) {
+      images[light.name] = EvalImagePath(view.name, light.name);
+      twins[light.name] = EvalTwinImagePath(view.name, light.name);
+    }
     views.push_back({{"name", view.name},
                      {"cam_from_world", ToJson(view.cam_from_world)},
                      {"camera_center_world_m", Vec(view.cam_from_world.Inverse().translation)},
                      {"min_angle_to_training_views_rad", view.min_angle_to_training_rad},
                      {"alpha", EvalAlphaPath(view.name)},
                      {"images", images}});
+    if (o.eval_noise_twin) views.back()["images_twin"] = twins;
   }
   j["eval"] = {{"intrinsics", ToJson(plan.eval_intrinsics)},
                {"background_visible", true},

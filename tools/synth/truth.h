@@ -22,6 +22,7 @@ std::string AlphaPath(const std::string& video, int frame);   // truth/<video>_a
 std::string BoardClipFolder(const std::string& phone);          // board_clip/<phone>
 std::string BoardClipFramePath(const std::string& phone, int frame);  // board_clip/<phone>/NNNNNN.png
 std::string EvalImagePath(const std::string& view, const std::string& light);  // eval/<view>/<light>.exr
+std::string EvalTwinImagePath(const std::string& view, const std::string& light);  // eval/<view>/<light>.twin.exr
 std::string EvalAlphaPath(const std::string& view);           // eval/<view>/alpha.exr
 std::string EnvmapPath(const std::string& name);              // eval/envmaps/<name>.exr
 std::string MeshPath(const std::string& object);              // truth/meshes/<object>.obj

@@ -1,0 +1,97 @@
+#include "relight/support_plane.h"
+
+#include <cmath>
+
+#include "core/error.h"
+#include "core/image.h"
+#include "core/render/mesh.h"
+
+namespace relit::relight {
+
+void SupportPlane::Check(const std::string& where) const {
+  if (!enabled) return;
+  board.Check();
+  auto albedo_ok = [](double a) { return std::isfinite(a) && a >= 0 && a <= 1; };
+  RELIT_REQUIRE(albedo_ok(paper_albedo) && albedo_ok(ink_albedo) && ink_albedo <= paper_albedo, where,
+                ": support plane paper_albedo and ink_albedo must be in [0, 1] with ink <= paper, got ",
+                paper_albedo, " and ", ink_albedo);
+  RELIT_REQUIRE(albedo_ok(table_albedo.x()) && albedo_ok(table_albedo.y()) && albedo_ok(table_albedo.z()), where,
+                ": support plane table_albedo must be 3 values in [0, 1]");
+  RELIT_REQUIRE(std::isfinite(paper_margin_m) && paper_margin_m >= 0 && paper_margin_m < 1, where,
+                ": support plane paper_margin_m must be in [0, 1) m, got ", paper_margin_m);
+  RELIT_REQUIRE(std::isfinite(table_half_size_m) && table_half_size_m > 0.5 * std::max(board.width_m(), board.height_m()),
+                where, ": support plane table_half_size_m must cover the board, got ", table_half_size_m);
+}
+
+nlohmann::json SupportPlane::ToJson() const {
+  if (!enabled) return {{"enabled", false}};
+  return {{"enabled", true},
+          {"board",
+           {{"squares_x", board.squares_x},
+            {"squares_y", board.squares_y},
+            {"square_length_m", board.square_length_m},
+            {"marker_length_m", board.marker_length_m},
+            {"dictionary", board.dictionary}}},
+          {"paper_albedo", paper_albedo},
+          {"ink_albedo", ink_albedo},
+          {"paper_margin_m", paper_margin_m},
+          {"table_albedo", {table_albedo.x(), table_albedo.y(), table_albedo.z()}},
+          {"table_half_size_m", table_half_size_m}};
+}
+
+SupportPlane SupportPlane::FromJson(const nlohmann::json& j, const std::string& where) {
+  SupportPlane plane;
+  if (j.is_null() || !j.value("enabled", false)) return plane;
+  try {
+    plane.enabled = true;
+    const nlohmann::json& b = j.at("board");
+    plane.board.squares_x = b.at("squares_x").get<int>();
+    plane.board.squares_y = b.at("squares_y").get<int>();
+    plane.board.square_length_m = b.at("square_length_m").get<double>();
+    plane.board.marker_length_m = b.at("marker_length_m").get<double>();
+    plane.board.dictionary = b.at("dictionary").get<std::string>();
+    plane.paper_albedo = j.at("paper_albedo").get<double>();
+    plane.ink_albedo = j.at("ink_albedo").get<double>();
+    plane.paper_margin_m = j.at("paper_margin_m").get<double>();
+    const auto& t = j.at("table_albedo");
+    RELIT_REQUIRE(t.is_array() && t.size() == 3, where, ": support_plane.table_albedo must hold 3 values");
+    plane.table_albedo = {t[0].get<double>(), t[1].get<double>(), t[2].get<double>()};
+    plane.table_half_size_m = j.at("table_half_size_m").get<double>();
+  } catch (const nlohmann::json::exception& e) {
+    Fail(where, ": bad support_plane entry (", e.what(), "); rerun the relight cues step");
+  }
+  plane.Check(where);
+  return plane;
+}
+
+void AddSupportPlane(const SupportPlane& plane, render::Scene* scene) {
+  if (!plane.enabled) return;
+  // ~2 texels per mm, whole texels per square so the squares stay exact.
+  const double square_px = std::max(8.0, std::round(plane.board.square_length_m * 2000));
+  const double pixels_per_metre = square_px / plane.board.square_length_m;
+  const int margin_px = static_cast<int>(std::lround(plane.paper_margin_m * pixels_per_metre));
+  const cv::Mat print = DrawBoardImage(plane.board, pixels_per_metre, margin_px);
+  Image albedo(print.cols, print.rows, 3);
+  for (int y = 0; y < print.rows; ++y) {
+    for (int x = 0; x < print.cols; ++x) {
+      const double ink = 1.0 - print.at<uint8_t>(y, x) / 255.0;
+      const float a = static_cast<float>(plane.paper_albedo + (plane.ink_albedo - plane.paper_albedo) * ink);
+      for (int c = 0; c < 3; ++c) albedo.at(x, y, c) = a;
+    }
+  }
+  // As the synthetic board: u along the image width, v up, centred on the
+  // world origin, so the printed top-left corner lands where WorldFromBoard says.
+  const float half_x = static_cast<float>(0.5 * print.cols / pixels_per_metre);
+  const float half_y = static_cast<float>(0.5 * print.rows / pixels_per_metre);
+  render::Material paper = render::Material::Lambert(render::Rgb::Zero());
+  paper.diffuse_albedo = render::Texture::FromImage(albedo, false);
+  scene->AddObject(render::MakeQuad(Eigen::Vector3f::Zero(), Eigen::Vector3f::UnitX(), Eigen::Vector3f::UnitY(),
+                                    half_x, half_y),
+                   std::move(paper), kSupportBoardObjectId);
+  const float half = static_cast<float>(plane.table_half_size_m);
+  scene->AddObject(render::MakeQuad(Eigen::Vector3f(0, 0, -0.0005f), Eigen::Vector3f::UnitX(),
+                                    Eigen::Vector3f::UnitY(), half, half),
+                   render::Material::Lambert(plane.table_albedo.cast<float>()), kSupportTableObjectId);
+}
+
+}  // namespace relit::relight
