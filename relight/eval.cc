@@ -134,6 +134,9 @@ TruthEvalSet ReadTruthEvalSet(const std::string& truth_json) {
     view.cam_from_world = Rigid3FromJson(JsonField(v, "cam_from_world", at), at + ".cam_from_world");
     view.alpha = (root / JsonString(v, "alpha", at)).string();
     view.min_angle_to_training_rad = v.value("min_angle_to_training_views_rad", 0.0);
+    view.set = v.value("set", std::string("extrapolation"));
+    RELIT_REQUIRE(view.set == "interpolation" || view.set == "extrapolation", at,
+                  ": set must be interpolation or extrapolation, got '", view.set, "'");
     const json& images = JsonField(v, "images", at);
     for (const TruthLight& light : set.lights) {
       RELIT_REQUIRE(images.contains(light.name), at, ": no image for light ", light.name);
@@ -239,6 +242,7 @@ EvalImageResult TruthNoiseFloor(const TruthView& view, const TruthLight& light, 
   r.light = light.name;
   r.light_type = light.type;
   r.method = kTruthNoiseFloor;
+  r.view_set = view.set;
   r.metrics = CompareToReference(premultiplied, reference, matte);
   r.metrics.mse /= 2;
   r.metrics.mae /= std::sqrt(2.0);
@@ -392,6 +396,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
         r.light = light.name;
         r.light_type = light.type;
         r.method = method;
+        r.view_set = view.set;
         r.metrics = CompareToReference(predicted, reference, matte);
         r.ssim = ForegroundSsim(predicted, reference, matte);
         if (options.write_images) {

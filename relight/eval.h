@@ -87,6 +87,9 @@ struct TruthView {
   // "images_twin"; absent in older captures): the truth's noise floor.
   std::map<std::string, std::string> twins;
   double min_angle_to_training_rad = 0;
+  // "interpolation" (on phone V's path between its frames) or "extrapolation"
+  // (away from it; truth files without "set" held only these).
+  std::string set = "extrapolation";
 };
 
 // The "eval" part of truth.json with what eval needs from the rest.
@@ -117,6 +120,7 @@ double ForegroundSsim(const Image& predicted, const Image& reference_rgb, const 
 
 struct EvalImageResult {
   std::string view, light, light_type, method;
+  std::string view_set = "extrapolation";  // the view's set in truth.json (interpolation | extrapolation)
   ImageMetrics metrics;
   double ssim = 0;
   std::string render_png, error_png, reference_png;  // relative to OUT; empty without images

@@ -76,6 +76,48 @@ std::string Cell(const Pooled& p) {
   return fmt::format("{:.2f} / {:.4f} / {:.3f}", p.metrics.psnr_db, p.metrics.mae, p.ssim);
 }
 
+// "| method | type... | all | alpha MAE |" rows, then the truth's noise floor.
+void AppendMethodTable(std::string* out, const std::vector<EvalImageResult>& results,
+                       const std::vector<EvalImageResult>& floors, const std::vector<std::string>& methods,
+                       const std::vector<std::string>& types, double clip) {
+  std::string& md = *out;
+  md += clip > 0 ? fmt::format("| method (clip {:g}) |", clip) : std::string("| method (no clip) |");
+  for (const std::string& t : types) md += " " + t + " |";
+  md += " all | alpha MAE |\n|---|";
+  for (size_t i = 0; i < types.size() + 2; ++i) md += "---|";
+  md += "\n";
+  for (const std::string& method : methods) {
+    md += "| " + method + " |";
+    for (const std::string& t : types) md += " " + Cell(Pool(results, method, t)) + " |";
+    const Pooled all = Pool(results, method, "all");
+    md += " " + Cell(all) + " | " + fmt::format("{:.4f}", all.metrics.alpha_mae) + " |\n";
+  }
+  if (!floors.empty()) {
+    md += "| truth noise floor |";
+    for (const std::string& t : types) md += " " + Cell(Pool(floors, kTruthNoiseFloor, t)) + " |";
+    md += " " + Cell(Pool(floors, kTruthNoiseFloor, "all")) + " | |\n";
+  }
+}
+
+// View sets present, interpolation first.
+std::vector<std::string> ViewSets(const std::vector<EvalImageResult>& results) {
+  std::vector<std::string> sets;
+  for (const std::string s : {"interpolation", "extrapolation"}) {
+    if (std::any_of(results.begin(), results.end(), [&](const EvalImageResult& r) { return r.view_set == s; })) {
+      sets.push_back(s);
+    }
+  }
+  return sets;
+}
+
+std::vector<EvalImageResult> InViewSet(const std::vector<EvalImageResult>& results, const std::string& set) {
+  std::vector<EvalImageResult> out;
+  for (const EvalImageResult& r : results) {
+    if (r.view_set == set) out.push_back(r);
+  }
+  return out;
+}
+
 }  // namespace
 
 double ForegroundSsim(const Image& predicted, const Image& reference_rgb, const Image& matte) {
@@ -168,7 +210,8 @@ void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResu
   }
   json images = json::array();
   for (const EvalImageResult& r : results) {
-    json row = {{"view", r.view}, {"light", r.light}, {"light_type", r.light_type}, {"method", r.method}};
+    json row = {{"view", r.view},     {"view_set", r.view_set}, {"light", r.light},
+                {"light_type", r.light_type}, {"method", r.method}};
     row.update(MetricsJson(r.metrics, r.ssim));
     if (!r.render_png.empty()) {
       row["render_png"] = r.render_png;
@@ -195,6 +238,28 @@ void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResu
         {"per_light_type", floor_rows},
         {"images", per_image}};
   }
+  json by_set = json::array();
+  for (const std::string& set : ViewSets(results)) {
+    const std::vector<EvalImageResult> in_set = InViewSet(results, set), floors_in_set = InViewSet(floors, set);
+    std::vector<std::string> columns = types;
+    columns.push_back("all");
+    for (const std::string& method : methods) {
+      for (const std::string& type : columns) {
+        const Pooled p = Pool(in_set, method, type);
+        json row = {{"view_set", set}, {"method", method}, {"light_type", type}, {"images", p.images}};
+        row.update(MetricsJson(p.metrics, p.ssim));
+        by_set.push_back(row);
+      }
+    }
+    for (const std::string& type : columns) {
+      const Pooled p = Pool(floors_in_set, kTruthNoiseFloor, type);
+      if (p.images == 0) continue;
+      json row = {{"view_set", set}, {"method", kTruthNoiseFloor}, {"light_type", type}, {"images", p.images}};
+      row.update(MetricsJson(p.metrics, p.ssim));
+      by_set.push_back(row);
+    }
+  }
+  header["summary_by_view_set"] = by_set;
   header["light_types"] = types;
   header["metrics"] =
       "linear radiance on the GT foreground (alpha >= 0.5), both clipped per RGB channel to [0, clip_radiance] (the "
@@ -224,27 +289,17 @@ void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResu
       md += "Skipped `" + method + "`: " + reason.get<std::string>() + ".\n\n";
     }
   }
-  md += clip > 0 ? fmt::format("| method (clip {:g}) |", clip) : std::string("| method (no clip) |");
-  for (const std::string& t : types) md += " " + t + " |";
-  md += " all | alpha MAE |\n|---|";
-  for (size_t i = 0; i < types.size() + 2; ++i) md += "---|";
-  md += "\n";
-  for (const std::string& method : methods) {
-    md += "| " + method + " |";
-    for (const std::string& t : types) md += " " + Cell(Pool(results, method, t)) + " |";
-    const Pooled all = Pool(results, method, "all");
-    md += " " + Cell(all) + " | " + fmt::format("{:.4f}", all.metrics.alpha_mae) + " |\n";
+  AppendMethodTable(&md, results, floors, methods, types, clip);
+  for (const std::string& set : ViewSets(results)) {
+    const std::vector<EvalImageResult> in_set = InViewSet(results, set), floors_in_set = InViewSet(floors, set);
+    md += fmt::format("\n### {} views ({} images per method)\n\n", set == "interpolation" ? "Interpolation" : "Extrapolation",
+                      Pool(in_set, methods.front(), "all").images);
+    AppendMethodTable(&md, in_set, floors_in_set, methods, types, clip);
   }
-  if (!floors.empty()) {
-    md += "| truth noise floor |";
-    for (const std::string& t : types) md += " " + Cell(Pool(floors, kTruthNoiseFloor, t)) + " |";
-    md += " " + Cell(Pool(floors, kTruthNoiseFloor, "all")) + " | |\n";
-    md += "\nTruth noise floor: each eval image against a second render with an independent seed, MSE halved = "
-          "the score a perfect prediction of the converged image would get. Scores within ~6 dB of it are "
-          "limited by the truth's noise, not by the method.\n";
-  } else {
-    md += "\nTruth noise floor: not measured (the truth has no twin renders).\n";
-  }
+  md += floors.empty() ? "\nTruth noise floor: not measured (the truth has no twin renders).\n"
+                       : "\nTruth noise floor: each eval image against a second render with an independent seed, MSE "
+                         "halved = the score a perfect prediction of the converged image would get. Scores within ~6 dB "
+                         "of it are limited by the truth's noise, not by the method.\n";
   md += "\n## Per image (PSNR dB / MAE / SSIM)\n\n| view | light |";
   for (const std::string& m : methods) md += " " + m + " |";
   md += "\n|---|---|";

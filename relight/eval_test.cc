@@ -126,10 +126,17 @@ TEST_F(EvalTest, ScoresModelAndCuesOnlyPerLightTypeAndWritesImages) {
   EXPECT_EQ(eval["methods"], json({"model", "cues_only"}));
   EXPECT_EQ(eval["skipped_methods"], json({"model_point_light"}));
   EXPECT_NEAR(eval["light_unit"]["factor"].get<double>(), 1.0 / 0.45, 1e-9);  // cue flash 1, tiny flash 0.45 W/sr
-  // tiny: 2 views x (2 point + 1 directional + 2 environment) lights, 2 methods.
-  EXPECT_EQ(eval["views"], 2);
+  // tiny: (2 extrapolation + 1 interpolation) views x (2 point + 1 directional + 2 environment) lights, 2 methods.
+  EXPECT_EQ(eval["views"], 3);
   EXPECT_EQ(eval["lights"], 5);
-  ASSERT_EQ(eval["images"].size(), 20u);
+  ASSERT_EQ(eval["images"].size(), 30u);
+  int interpolation_rows = 0;
+  for (const json& row : eval["summary_by_view_set"]) {
+    const int expected_images = row["light_type"] == "all" ? 5 : row["light_type"] == "directional" ? 1 : 2;
+    EXPECT_EQ(row["images"].get<int>(), (row["view_set"] == "interpolation" ? 1 : 2) * expected_images) << row;
+    if (row["view_set"] == "interpolation") ++interpolation_rows;
+  }
+  EXPECT_EQ(interpolation_rows, 2 * 4);  // 2 methods x (3 types + all)
   for (const json& image : eval["images"]) {
     for (const char* key : {"psnr_db", "mae", "ssim", "alpha_mae"}) {
       ASSERT_TRUE(image[key].is_number()) << key << " " << image.dump();
@@ -145,7 +152,7 @@ TEST_F(EvalTest, ScoresModelAndCuesOnlyPerLightTypeAndWritesImages) {
   for (const std::string method : {"model", "cues_only"}) {
     for (const std::string type : {"point", "directional", "environment", "all"}) {
       const json& row = Row(eval, method, type);
-      EXPECT_EQ(row["images"].get<int>(), type == "point" || type == "environment" ? 4 : type == "all" ? 10 : 2);
+      EXPECT_EQ(row["images"].get<int>(), type == "point" || type == "environment" ? 6 : type == "all" ? 15 : 3);
       std::printf("%-10s %-12s PSNR %6.2f dB  MAE %.4f  SSIM %.3f  alpha MAE %.4f\n", method.c_str(), type.c_str(),
                   row["psnr_db"].get<double>(), row["mae"].get<double>(), row["ssim"].get<double>(),
                   row["alpha_mae"].get<double>());
@@ -172,6 +179,8 @@ TEST_F(EvalTest, ScoresModelAndCuesOnlyPerLightTypeAndWritesImages) {
   EXPECT_NE(md.find("| method (clip 1) | point | directional | environment | all | alpha MAE |"), std::string::npos)
       << md;
   EXPECT_NE(md.find("| cues_only |"), std::string::npos);
+  EXPECT_NE(md.find("### Interpolation views (5 images per method)"), std::string::npos) << md;
+  EXPECT_NE(md.find("### Extrapolation views (10 images per method)"), std::string::npos) << md;
   EXPECT_EQ(eval["clip_radiance"].get<double>(), 1.0);  // the default: SDR white
 }
 
@@ -246,7 +255,7 @@ TEST_F(EvalTest, TruthNoiseFloorFromTwinRenders) {
 TEST(EvalErrors, MissingEvalImageIsNamed) {
   const std::string dir = (fs::temp_directory_path() / ("relit_eval_missing_" + std::to_string(::getpid()))).string();
   const std::string truth = WriteTruth(dir, false);
-  EXPECT_EQ(ReadTruthEvalSet(truth).views.size(), 2u);  // complete: reads
+  EXPECT_EQ(ReadTruthEvalSet(truth).views.size(), 3u);  // complete: reads
   const std::string missing = dir + "/eval/view_01/directional_00.exr";
   ASSERT_TRUE(fs::remove(missing));
   try {

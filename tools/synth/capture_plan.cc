@@ -16,7 +16,7 @@ constexpr double kDegToRad = M_PI / 180.0;
 
 enum Stream : uint64_t {
   kViewPath = 1, kLightPath, kGeometryPath, kOffset, kClaps, kEval, kLightDirection, kSun,
-  kBoardClip,
+  kBoardClip, kEvalInterpolation,
 };
 
 std::string Numbered(const std::string& prefix, int i) {
@@ -214,6 +214,26 @@ CapturePlan MakeCapturePlan(const SynthOptions& o, const SynthScene& scene) {
     }
     RELIT_REQUIRE(placed, "cannot place held-out evaluation view ", v, " at least ",
                   o.eval_min_angle_deg, " deg away from the phone-V path: lower eval_min_angle_deg");
+  }
+  // Interpolation views: phone V's own path at random times between its
+  // frames, as DNL evaluates on held-out frames of the capture. Their own
+  // seed stream, after the extrapolation views, leaves those and the lights
+  // as they were.
+  uint64_t interpolation_state = SubSeed(o.seed, kEvalInterpolation);
+  const double path_duration_s = plan.view.frames.empty() ? 0.0 : plan.view.frames.back().t_common_s;
+  for (int v = 0; v < o.eval_interpolation_views; ++v) {
+    const double t_s = path_duration_s * UniformFromState(&interpolation_state);
+    EvalView view;
+    view.name = Numbered("interp", v);
+    view.set = "interpolation";
+    view.cam_from_world = view_path.CamFromWorld(t_s);
+    const Eigen::Vector3d direction = (view.cam_from_world.Inverse().translation - scene.target_world).normalized();
+    double nearest = M_PI;
+    for (const Eigen::Vector3d& t : training_directions) {
+      nearest = std::min(nearest, std::acos(std::clamp(direction.dot(t), -1.0, 1.0)));
+    }
+    view.min_angle_to_training_rad = nearest;
+    plan.eval_views.push_back(view);
   }
 
   // Evaluation lights.

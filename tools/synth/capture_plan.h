@@ -52,6 +52,9 @@ struct EvalView {
   std::string name;        // "view_00", ...
   Rigid3 cam_from_world;
   double min_angle_to_training_rad = 0;  // to the nearest phone-V view direction
+  // "extrapolation": away from every phone-V view (eval_min_angle_deg);
+  // "interpolation": on phone V's own path between its frames.
+  std::string set = "extrapolation";
 };
 
 struct CapturePlan {

@@ -80,7 +80,8 @@ struct SynthOptions {
   int clap_count = 4;
 
   // Evaluation set.
-  int eval_views = 3;
+  int eval_views = 3;                // extrapolation views, >= eval_min_angle_deg from phone V's path
+  int eval_interpolation_views = 0;  // views on phone V's path between its frames (DNL's held-out frames)
   int eval_samples_per_pixel = 16;
   // A second render of every eval image with an independent seed, so eval
   // can measure the truth's own noise floor (relight.md, "Evaluation").

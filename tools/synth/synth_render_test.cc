@@ -299,7 +299,7 @@ TEST_F(SynthRenderTest, EvalSetIsComplete) {
   const nlohmann::json& eval = (*truth_)["eval"];
   const Intrinsics k = IntrinsicsFromJson(eval["intrinsics"]);
   EXPECT_TRUE(k.distortion.IsZero());
-  ASSERT_EQ(eval["views"].size(), 2u);
+  ASSERT_EQ(eval["views"].size(), 3u);  // tiny: 2 extrapolation + 1 interpolation
   std::set<std::string> types;
   for (const auto& light : eval["lights"]) types.insert(light["type"].get<std::string>());
   EXPECT_EQ(types, (std::set<std::string>{"point", "directional", "environment"}));
@@ -309,8 +309,27 @@ TEST_F(SynthRenderTest, EvalSetIsComplete) {
       EXPECT_EQ(map.width(), 2 * map.height());
     }
   }
+  int interpolation = 0;
   for (const auto& view : eval["views"]) {
-    EXPECT_GE(view["min_angle_to_training_views_rad"].get<double>(), 10.0 * M_PI / 180 - 1e-9);
+    if (view["set"] == "interpolation") {
+      // On phone V's path between its frames: close to a training view, yet no frame's pose.
+      ++interpolation;
+      EXPECT_LT(view["min_angle_to_training_views_rad"].get<double>(), 5.0 * M_PI / 180);
+      for (const auto& frame : (*truth_)["videos"]["view"]["frames"]) {
+        EXPECT_NE(frame["cam_from_world"], view["cam_from_world"]);
+      }
+    } else {
+      EXPECT_EQ(view["set"], "extrapolation");
+      EXPECT_GE(view["min_angle_to_training_views_rad"].get<double>(), 10.0 * M_PI / 180 - 1e-9);
+    }
+    // The noise twin (independent seed): same size, not the same pixels.
+    ASSERT_TRUE(view.contains("images_twin"));
+    for (const auto& [light, path] : view["images_twin"].items()) {
+      const Image twin = ReadImage(Capture(path.get<std::string>()).string());
+      const Image image = ReadImage(Capture(view["images"][light].get<std::string>()).string());
+      ASSERT_EQ(twin.data().size(), image.data().size());
+      EXPECT_NE(twin.data(), image.data()) << light;
+    }
     const Image alpha = ReadImage(Capture(view["alpha"].get<std::string>()).string());
     EXPECT_EQ(alpha.width(), k.width);
     double covered = 0;
@@ -334,6 +353,7 @@ TEST_F(SynthRenderTest, EvalSetIsComplete) {
       EXPECT_LT(mean, 2.0) << light;
     }
   }
+  EXPECT_EQ(interpolation, 1);
 }
 
 // --eval-only renders the same eval set as the full run (same options, seed

@@ -217,6 +217,7 @@ nlohmann::json MakeTruthJson(const SynthOptions& o, const SynthScene& scene, con
                      {"cam_from_world", ToJson(view.cam_from_world)},
                      {"camera_center_world_m", Vec(view.cam_from_world.Inverse().translation)},
                      {"min_angle_to_training_views_rad", view.min_angle_to_training_rad},
+                     {"set", view.set},
                      {"alpha", EvalAlphaPath(view.name)},
                      {"images", images}});
     if (o.eval_noise_twin) views.back()["images_twin"] = twins;
