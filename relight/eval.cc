@@ -356,6 +356,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
 
   AtomicDir out(out_dir);
   std::vector<EvalImageResult> results, floors;
+  json zooms = json::array();  // truth | methods strips zoomed on the object, one per image
   Progress progress("eval", static_cast<int64_t>(view_count * truth.lights.size()));
   for (size_t v = 0; v < view_count; ++v) {
     const TruthView& view = truth.views[v];
@@ -383,6 +384,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
       }
       const std::string stem = light.name;
       if (options.write_images) WriteReferencePng((image_dir / (stem + "_gt.png")).string(), reference, matte);
+      std::vector<Image> predictions;  // per method, for the zoomed comparison
       for (const std::string& method : methods) {
         Image predicted;
         {
@@ -411,6 +413,20 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
         spdlog::debug("eval: {} {} {}: PSNR {:.2f} dB, MAE {:.4f}, SSIM {:.3f}", view.name, light.name, method,
                       r.metrics.psnr_db, r.metrics.mae, r.ssim);
         results.push_back(r);
+        predictions.push_back(std::move(predicted));
+      }
+      if (options.write_images) {
+        std::vector<const Image*> renders;
+        for (const Image& p : predictions) renders.push_back(&p);
+        const std::string rel = "images/" + view.name + "/" + stem + "_zoom.png";
+        if (WriteZoomStripPng((out.path() / rel).string(), reference, matte, renders)) {
+          zooms.push_back({{"view", view.name}, {"view_set", view.set}, {"light", light.name}, {"png", rel},
+                           {"columns", [&] {
+                              std::vector<std::string> columns = {"truth"};
+                              columns.insert(columns.end(), methods.begin(), methods.end());
+                              return columns;
+                            }()}});
+        }
       }
       progress.Advance();
     }
@@ -442,6 +458,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
                      {"resolution_px", options.baseline_resolution_px},
                      {"pixels", baseline ? baseline->pixels_used() : 0}}},
       {"models", asset.partition_models},
+      {"zoom_pngs", zooms},
       {"options", options.ToJson()},
       {"timings_s", record.ToJson()["timings_s"]}};
   if (floors.empty()) spdlog::warn("eval: {} lists no noise twins of its images: the truth's noise floor is not measured "

@@ -140,6 +140,11 @@ inline constexpr const char* kTruthNoiseFloor = "truth_noise_floor";
 // PNG helpers (eval_report.cc): premultiplied RGBA over grey, sRGB; GT RGB
 // x matte over the same grey; |pred - GT x matte| x scale (linear, clipped).
 void WriteRenderPng(const std::string& path, const Image& rgba);
+// Truth | render | render ... side by side, cropped to the GT foreground's
+// bounding box (+15 %) and enlarged by a whole factor to about `height_px`,
+// over the same grey, sRGB. False (nothing written) without a foreground.
+bool WriteZoomStripPng(const std::string& path, const Image& reference_rgb, const Image& matte,
+                       const std::vector<const Image*>& renders, int height_px = 240);
 void WriteReferencePng(const std::string& path, const Image& reference_rgb, const Image& matte);
 void WriteErrorPng(const std::string& path, const Image& rgba, const Image& reference_rgb, const Image& matte,
                    double scale);

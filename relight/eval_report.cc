@@ -193,6 +193,51 @@ void WriteErrorPng(const std::string& path, const Image& rgba, const Image& refe
   WriteImage(path, png, PixelStorage::kUint8);
 }
 
+bool WriteZoomStripPng(const std::string& path, const Image& reference_rgb, const Image& matte,
+                       const std::vector<const Image*>& renders, int height_px) {
+  // The foreground's bounding box, 15 % larger on each side.
+  int x0 = matte.width(), y0 = matte.height(), x1 = -1, y1 = -1;
+  for (int y = 0; y < matte.height(); ++y) {
+    for (int x = 0; x < matte.width(); ++x) {
+      if (matte.at(x, y, 0) < 0.5f) continue;
+      x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x), y1 = std::max(y1, y);
+    }
+  }
+  if (x1 < 0) return false;
+  const int margin = static_cast<int>(0.15 * std::max(x1 - x0 + 1, y1 - y0 + 1)) + 1;
+  x0 = std::max(0, x0 - margin), y0 = std::max(0, y0 - margin);
+  x1 = std::min(matte.width() - 1, x1 + margin), y1 = std::min(matte.height() - 1, y1 + margin);
+  const int crop_w = x1 - x0 + 1, crop_h = y1 - y0 + 1;
+  const int zoom = std::max(1, height_px / crop_h);  // whole pixels: no resampling blur
+  const float grey = SrgbToLinear(kGreySrgb);
+  Image rgba_reference(reference_rgb.width(), reference_rgb.height(), {"R", "G", "B", "A"});
+  for (int y = 0; y < matte.height(); ++y) {
+    for (int x = 0; x < matte.width(); ++x) {
+      const float m = std::clamp(matte.at(x, y, 0), 0.0f, 1.0f);
+      for (int c = 0; c < 3; ++c) rgba_reference.at(x, y, c) = reference_rgb.at(x, y, c) * m;
+      rgba_reference.at(x, y, 3) = m;
+    }
+  }
+  std::vector<const Image*> panels = {&rgba_reference};
+  panels.insert(panels.end(), renders.begin(), renders.end());
+  const int gap = 4;
+  Image png(static_cast<int>(panels.size()) * (crop_w * zoom + gap) - gap, crop_h * zoom, {"R", "G", "B"}, 1.0f);
+  for (size_t i = 0; i < panels.size(); ++i) {
+    const int left = static_cast<int>(i) * (crop_w * zoom + gap);
+    for (int y = 0; y < crop_h * zoom; ++y) {
+      for (int x = 0; x < crop_w * zoom; ++x) {
+        const float* p = panels[i]->pixel(x0 + x / zoom, y0 + y / zoom);
+        const float a = std::clamp(p[3], 0.0f, 1.0f);
+        for (int c = 0; c < 3; ++c) {
+          png.at(left + x, y, c) = LinearToSrgb(std::clamp(p[c] + (1 - a) * grey, 0.0f, 1.0f));
+        }
+      }
+    }
+  }
+  WriteImage(path, png, PixelStorage::kUint8);
+  return true;
+}
+
 void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResult>& results,
                      const std::vector<std::string>& methods, json header,
                      const std::vector<EvalImageResult>& floors) {

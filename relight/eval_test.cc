@@ -147,6 +147,14 @@ TEST_F(EvalTest, ScoresModelAndCuesOnlyPerLightTypeAndWritesImages) {
       EXPECT_TRUE(fs::exists(out / image[key].get<std::string>())) << image[key];
     }
   }
+  // Truth | model | cues_only zoomed on the object, one strip per (view, light).
+  ASSERT_EQ(eval["zoom_pngs"].size(), 15u);
+  for (const json& zoom : eval["zoom_pngs"]) {
+    EXPECT_EQ(zoom["columns"], json({"truth", "model", "cues_only"}));
+    const Image strip = ReadImage((out / zoom["png"].get<std::string>()).string());
+    EXPECT_GE(strip.height(), 120);  // the object (~35 px high at 160 x 120) enlarged
+    EXPECT_GT(strip.width(), 3 * strip.height() / 2);
+  }
   const Image error = ReadImage((out / eval["images"][0]["error_png"].get<std::string>()).string());
   EXPECT_EQ(error.width(), kWidth);
   for (const std::string method : {"model", "cues_only"}) {

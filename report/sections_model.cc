@@ -371,6 +371,19 @@ std::string EvalTables(ReportContext& context, const fs::path& dir, const json& 
                              method + ": |error| x " + Fixed(scale, 0)));
   }
   if (!figures.empty()) html += FigureRow(figures);
+  // Every eval image zoomed on the object: truth | each method.
+  if (eval.contains("zoom_pngs") && !eval["zoom_pngs"].empty()) {
+    std::string zooms;
+    for (const json& zoom : eval["zoom_pngs"]) {
+      const std::string view = zoom.value("view", ""), light = zoom.value("light", "");
+      std::string columns;
+      for (const json& c : zoom.value("columns", json::array())) columns += (columns.empty() ? "" : " | ") + c.get<std::string>();
+      zooms += Figure(context.Thumbnail(dir / zoom.value("png", ""), "eval_zoom_" + view + "_" + light),
+                      view + " (" + zoom.value("view_set", "") + "), " + light + ": " + columns);
+    }
+    html += "<details open><summary>Every eval image, zoomed on the object (truth | methods)</summary>" + zooms +
+            "</details>\n";
+  }
   std::vector<std::vector<std::string>> image_rows;
   for (const json& image : eval.at("images")) {
     image_rows.push_back({image.value("view", ""), image.value("light", ""), image.value("method", ""),
