@@ -117,13 +117,8 @@ void CheckOutputReplaceable(const fs::path& target, const OutputGuard& guard,
     RELIT_REQUIRE(!IsWithin(canonical_input, canonical_target), option, " ", name,
                   " holds the input ", input.string(), ": ", guard.stage,
                   " replaces its output folder as a whole, so choose a new or empty folder for ",
-                  option, " (e.g. ", (target / guard.stage.substr(guard.stage.find('-') + 1)).string(),
+                  option, " (e.g. ", (target / guard.stage.substr(guard.stage.find_last_of("- ") + 1)).string(),
                   ")");
-    std::error_code ec;
-    RELIT_REQUIRE(!(fs::is_directory(canonical_input, ec) &&
-                    IsWithin(canonical_target, canonical_input)),
-                  option, " ", name, " lies inside the input folder ", input.string(),
-                  ": choose an output folder outside it");
   }
   std::error_code ec;
   const fs::file_status status = fs::symlink_status(target, ec);
