@@ -70,7 +70,7 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
   const spdlog::level::level_enum level = ParseLogLevel(options.log_level);
   const fs::path workspace(options.workspace);
   const CaptureInput input = ReadCaptureFile(options.workspace);
-  AtomicDir out(workspace / "calib");
+  AtomicDir out(workspace / "calib", OutputGuard{"relit-calib", options.force, {}}, "--workspace");
   const fs::path root = out.path();
   LogFileScope log_scope{level};
   InitLogging((root / "calib.log").string(), level);
@@ -316,12 +316,13 @@ int RunCalib(int argc, char** argv) {
                "(board + COLMAP), place phone L's flash for every phone V frame. Reads W/capture, "
                "writes W/calib. See docs/calib.md."};
   std::string workspace, config, log_level;
-  bool no_sfm = false;
+  bool no_sfm = false, options_force = false;
   app.add_option("--workspace", workspace, "workspace folder W (reads W/capture, writes W/calib)");
   app.add_option("--config", config, "YAML file with calib options (unknown keys are errors)")
       ->check(CLI::ExistingFile);
   app.add_flag("--no-sfm", no_sfm, "board poses only, no COLMAP (sfm.enabled: false)");
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
+  app.add_flag("--force", options_force, "replace a W/calib folder that relit-calib did not write");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -334,6 +335,7 @@ int RunCalib(int argc, char** argv) {
   }
   if (!workspace.empty()) options.workspace = workspace;
   if (no_sfm) options.sfm.enabled = false;
+  options.force = options_force;
   if (!log_level.empty()) options.log_level = log_level;
   SetVerbosity(ParseLogLevel(options.log_level));
   options.Check();

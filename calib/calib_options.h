@@ -106,6 +106,9 @@ struct CalibOptions {
   LightOptions light;
   UndistortOptions undistort;
   std::string log_level = "info";
+  // --force: replace an output folder that relit did not write (never one
+  // holding an input, never a file). Not an option of the config file.
+  bool force = false;
 
   void Read(OptionsReader& reader);
   void Check() const;

@@ -176,7 +176,8 @@ CaptureSummary RunCaptureImpl(const CaptureOptions& options) {
   options.Check();
   const auto start = std::chrono::steady_clock::now();
   const spdlog::level::level_enum level = ParseLogLevel(options.log_level);
-  AtomicDir out(options.out);
+  AtomicDir out(options.out, OutputGuard{"relit-capture", options.force,
+                                         {options.view, options.light, options.geometry}});
   const fs::path root = out.path();
   LogFileScope log_scope{level};
   InitLogging((root / "capture.log").string(), level);
@@ -194,6 +195,10 @@ CaptureSummary RunCaptureImpl(const CaptureOptions& options) {
     ProbeVideo(options.light, kLightRole);  // fail on a bad phone L file before hashing phone V
     view = PrepareInput(options.view, kViewRole, options);
     light = PrepareInput(options.light, kLightRole, options);
+    RELIT_REQUIRE(view.fingerprint.size_bytes != light.fingerprint.size_bytes ||
+                      view.fingerprint.fnv1a64 != light.fingerprint.fnv1a64, "--view ", options.view, " and --light ",
+                  options.light, " are the same video: phone V (no flash) and phone L (flash on) each "
+                  "film their own video; give both files");
     if (!options.geometry.empty() && !fs::is_directory(options.geometry)) {
       ProbeVideo(options.geometry, kGeometryRole);
     }
@@ -359,6 +364,9 @@ int RunCapture(int argc, char** argv) {
   app.add_flag("--allow-partial", allow_partial,
                "keep the part of a damaged video before its first decode error");
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
+  bool force = false;
+  app.add_flag("--force", force,
+               "replace an --out folder that relit-capture did not write (never one holding an input)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -386,6 +394,7 @@ int RunCapture(int argc, char** argv) {
   }
   if (long_side->count() > 0) options.max_long_side_px = max_long_side_px;
   if (allow_partial) options.allow_partial = true;
+  options.force = force;
   if (!log_level.empty()) options.log_level = log_level;
   SetVerbosity(ParseLogLevel(options.log_level));
   options.Check();

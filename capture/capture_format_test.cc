@@ -57,8 +57,19 @@ void WriteFrames(const TempDir& dir) {
   }
 }
 
+// Phone L: the same frames remuxed into a file of its own (relit refuses one
+// file, or two identical copies, as both phones).
+std::string LightCopy(const std::string& view) {
+  const std::filesystem::path p(view);
+  const std::string light = (p.parent_path() / (p.stem().string() + "_light" + p.extension().string())).string();
+  if (!std::filesystem::exists(light)) {
+    Shell("ffmpeg -nostdin -v error -y -i " + view + " -map 0 -c copy -metadata title=phone-L " + light);
+  }
+  return light;
+}
+
 CaptureOptions LenientOptions(const std::string& view, const std::string& out) {
-  CaptureOptions o = TestOptions(view, view, out);
+  CaptureOptions o = TestOptions(view, LightCopy(view), out);
   o.sync.manual = true;
   o.view_select.target_frames = 1000;
   o.view_select.min_blur_ratio = 0;

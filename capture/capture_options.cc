@@ -1,6 +1,8 @@
 #include "capture/capture_options.h"
 
 #include <cmath>
+#include <filesystem>
+#include <utility>
 
 #include "core/error.h"
 
@@ -56,6 +58,9 @@ void SelectOptions::Read(OptionsReader& r) {
 }
 
 void SelectOptions::Check(const std::string& s) const {
+  RELIT_REQUIRE(target_frames >= 0, s, ".target_frames (--target-frames) must be a positive number of phone V "
+                "frames to keep, got ", target_frames, "; e.g. --target-frames 60");
+  RELIT_REQUIRE(target_fps >= 0, s, ".target_fps must be a positive frame rate, got ", target_fps);
   RELIT_REQUIRE(target_frames >= 0 && target_fps >= 0 && (target_frames > 0) != (target_fps > 0),
                 s, ": set exactly one of target_frames (--target-frames) and target_fps, got "
                 "target_frames = ", target_frames, ", target_fps = ", target_fps);
@@ -113,6 +118,18 @@ void CaptureOptions::Check() const {
   RELIT_REQUIRE(!view.empty(), "no phone V video: pass --view VIDEO (the phone filming without flash)");
   RELIT_REQUIRE(!light.empty(), "no phone L video: pass --light VIDEO (the phone with its flash on)");
   RELIT_REQUIRE(!out.empty(), "no output folder: pass --out WORKSPACE/capture");
+  {
+    std::error_code ec;
+    const auto same = std::filesystem::equivalent(view, light, ec);
+    RELIT_REQUIRE(!(same && !ec) && view != light, "the phone V video (--view, inputs.view) and the phone L "
+                  "video (--light, inputs.light) are the same file, ", view,
+                  ": give the two phones' own videos");
+    for (const auto& [path, role] : {std::pair<std::string, const char*>{view, "phone V video (--view, inputs.view)"},
+                                     {light, "phone L video (--light, inputs.light)"}}) {
+      RELIT_REQUIRE(!std::filesystem::is_directory(path, ec), "the ", role, " ", path,
+                    " is a folder: give the video file");
+    }
+  }
   sync.Check();
   view_select.Check("view_select");
   geometry_select.Check("geometry_select");

@@ -63,6 +63,9 @@ struct CaptureOptions {
   int jpeg_quality = 95;
   bool allow_partial = false;        // keep the part of a damaged video before the first error
   std::string log_level = "info";
+  // --force: replace an output folder that relit did not write (never one
+  // holding an input, never a file). Not an option of the config file.
+  bool force = false;
 
   void Read(OptionsReader& reader);
   void Check() const;

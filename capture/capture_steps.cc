@@ -1,5 +1,7 @@
 #include "capture/capture_steps.h"
 
+#include <set>
+
 #include <algorithm>
 #include <cmath>
 
@@ -42,6 +44,14 @@ AnalysedVideo PrepareInput(const std::string& path, const std::string& role,
                            const CaptureOptions& options) {
   AnalysedVideo video;
   video.info = ProbeVideo(path, role);
+  // ffmpeg opens a still image as a one-frame "video"; with --offset-s it
+  // would become a one-frame capture.
+  static const std::set<std::string> kImageCodecs = {"png", "bmp", "tiff", "webp", "gif", "pam", "pgm",
+                                                     "ppm", "pbm", "jpeg2000", "jpegls", "exr", "hdr"};
+  RELIT_REQUIRE(kImageCodecs.count(video.info.codec) == 0 &&
+                    !(video.info.codec == "mjpeg" && video.info.header_frame_count <= 1),
+                "the ", role, " ", path, " is a still image (", video.info.codec,
+                "), not a video: give the phone's video file (MP4/MOV)");
   video.transfer = ResolveTransfer(video.info, options.transfer);
   video.fingerprint = Fingerprint(path);
   OutputSize(video.info, options.max_long_side_px, &video.output_width_px, &video.output_height_px);
@@ -86,6 +96,8 @@ void AnalyseFrames(AnalysedVideo* video_ptr, const CaptureOptions& options,
                  "(--allow-partial)", path, pass.issue.time_s, pass.issue.message, usable);
   }
   RELIT_REQUIRE(usable > 0, "the ", role, " ", path, " has no decodable video frames");
+  RELIT_REQUIRE(usable > 1, "the ", role, " ", path,
+                " has a single frame (a still image?): give the phone's video file (MP4/MOV)");
   for (int i = 0; i < usable; ++i) {
     Candidate c;
     c.source_frame = i;

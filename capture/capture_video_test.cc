@@ -206,5 +206,56 @@ TEST_F(CaptureVideoTest, RefusesAbsurdOptions) {
   ExpectFailure(o, {"max_long_side_px"});
 }
 
+// Inputs that cannot make a capture and outputs that would lose the user's
+// files (docs/refusals.md): each is refused and leaves every file as it was.
+TEST_F(CaptureVideoTest, RefusesOutputsThatWouldLoseFilesAndInputsThatFakeACapture) {
+  auto error_of = [](const CaptureOptions& o) {
+    try {
+      RunCaptureImpl(o);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  auto read = [](const fs::path& path) {
+    std::ifstream in(path);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  };
+  const fs::path user = *dir_ / "user";
+  fs::create_directories(user);
+  fs::copy_file(In("view.mp4"), user / "v.mp4", fs::copy_options::overwrite_existing);
+  fs::copy_file(In("light.mp4"), user / "l.mp4", fs::copy_options::overwrite_existing);
+  std::ofstream(user / "notes.txt") << "mine";
+  // --out is the folder holding the inputs (also with --force).
+  CaptureOptions o = TestOptions(user / "v.mp4", user / "l.mp4", user);
+  o.force = true;
+  EXPECT_NE(error_of(o).find("holds the input"), std::string::npos) << error_of(o);
+  EXPECT_EQ(read(user / "notes.txt"), "mine");
+  EXPECT_TRUE(fs::exists(user / "v.mp4"));
+  // --out is an existing file.
+  o = TestOptions(user / "v.mp4", user / "l.mp4", user / "notes.txt");
+  EXPECT_NE(error_of(o).find("never replaces a file"), std::string::npos) << error_of(o);
+  EXPECT_EQ(read(user / "notes.txt"), "mine");
+  // A folder of someone else's files without --force.
+  o = TestOptions(In("view.mp4"), In("light.mp4"), user);
+  o.sync.manual = true;
+  EXPECT_NE(error_of(o).find("--force"), std::string::npos) << error_of(o);
+  // One video as both phones (the same path, or a copy).
+  o = TestOptions(In("view.mp4"), In("view.mp4"), *dir_ / "out_same");
+  EXPECT_NE(error_of(o).find("same file"), std::string::npos) << error_of(o);
+  o = TestOptions(In("view.mp4"), user / "v.mp4", *dir_ / "out_same");
+  o.sync.manual = true;
+  EXPECT_NE(error_of(o).find("same video"), std::string::npos) << error_of(o);
+  // A folder, and a still image renamed .mp4, as videos.
+  o = TestOptions(user.string(), In("light.mp4"), *dir_ / "out_folder");
+  EXPECT_NE(error_of(o).find("is a folder"), std::string::npos) << error_of(o);
+  cv::imwrite(*dir_ / "still.png", cv::Mat(64, 64, CV_8UC3, cv::Scalar(40, 80, 120)));
+  fs::copy_file(*dir_ / "still.png", *dir_ / "still.mp4", fs::copy_options::overwrite_existing);
+  o = TestOptions(*dir_ / "still.mp4", In("light.mp4"), *dir_ / "out_still");
+  o.sync.manual = true;
+  EXPECT_NE(error_of(o).find("still image"), std::string::npos) << error_of(o);
+  EXPECT_FALSE(fs::exists(*dir_ / "out_still"));
+}
+
 }  // namespace
 }  // namespace relit::capture

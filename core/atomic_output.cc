@@ -11,6 +11,11 @@
 #include <system_error>
 #include <utility>
 
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
 #include "core/error.h"
 
 namespace relit {
@@ -53,7 +58,90 @@ bool OtherProcessRunning(long pid) {
   return kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM;
 }
 
+// weakly_canonical of an absolute path; the lexical form when that fails.
+fs::path Canonical(const fs::path& path) {
+  std::error_code ec;
+  const fs::path absolute = fs::absolute(path, ec);
+  if (ec) return path.lexically_normal();
+  fs::path canonical = fs::weakly_canonical(absolute, ec);
+  if (ec) return absolute.lexically_normal();
+  return canonical;
+}
+
+// True when `inner` is `outer` or lies below it (both canonical).
+bool IsWithin(const fs::path& inner, const fs::path& outer) {
+  auto i = inner.begin();
+  for (auto o = outer.begin(); o != outer.end(); ++o, ++i) {
+    if (o->empty()) continue;  // a trailing separator
+    if (i == inner.end() || *i != *o) return false;
+  }
+  return true;
+}
+
+std::string ReadSmallFile(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// The stage recorded in `dir`: its marker file, else the "tool" of its
+// run.json (outputs written before the marker existed); "" when neither.
+std::string RecordedStage(const fs::path& dir) {
+  std::error_code ec;
+  const fs::path marker = dir / kOutputMarkerFile;
+  if (fs::is_regular_file(marker, ec)) {
+    std::string text = ReadSmallFile(marker);
+    while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) text.pop_back();
+    return text;
+  }
+  const fs::path record = dir / "run.json";
+  if (fs::is_regular_file(record, ec) && fs::file_size(record, ec) < (1u << 20)) {
+    const nlohmann::json json = nlohmann::json::parse(ReadSmallFile(record), nullptr, false);
+    if (json.is_object() && json.contains("tool") && json["tool"].is_string()) {
+      return json["tool"].get<std::string>();
+    }
+  }
+  return "";
+}
+
 }  // namespace
+
+void CheckOutputReplaceable(const fs::path& target, const OutputGuard& guard,
+                            const std::string& option) {
+  const std::string name = target.string();
+  const fs::path canonical_target = Canonical(target);
+  for (const fs::path& input : guard.inputs) {
+    if (input.empty()) continue;
+    const fs::path canonical_input = Canonical(input);
+    RELIT_REQUIRE(!IsWithin(canonical_input, canonical_target), option, " ", name,
+                  " holds the input ", input.string(), ": ", guard.stage,
+                  " replaces its output folder as a whole, so choose a new or empty folder for ",
+                  option, " (e.g. ", (target / guard.stage.substr(guard.stage.find_last_of("- ") + 1)).string(),
+                  ")");
+  }
+  std::error_code ec;
+  const fs::file_status status = fs::symlink_status(target, ec);
+  if (status.type() == fs::file_type::not_found) return;
+  RELIT_REQUIRE(status.type() != fs::file_type::regular, option, " ", name,
+                " is an existing file, not a folder: ", guard.stage,
+                " never replaces a file; give a folder path");
+  RELIT_REQUIRE(status.type() == fs::file_type::directory, option, " ", name,
+                " exists and is not a folder (a link or special file): give a new folder path");
+  fs::directory_iterator entries(target, ec);
+  RELIT_REQUIRE(!ec, "cannot read the output folder ", name, ": ", ec.message());
+  if (entries == fs::directory_iterator()) return;  // empty
+  const std::string recorded = RecordedStage(target);
+  if (!recorded.empty() && recorded == guard.stage) return;
+  if (guard.force) return;
+  if (!recorded.empty()) {
+    Fail(option, " ", name, " was written by ", recorded, ", not ", guard.stage,
+         ": choose another folder, or pass --force to replace it");
+  }
+  Fail(option, " ", name, " is a folder with files that ", guard.stage,
+       " did not write (no ", kOutputMarkerFile,
+       " marker): choose a new or empty folder, or pass --force to replace it and everything in it");
+}
 
 namespace internal {
 
@@ -121,11 +209,22 @@ AtomicDir::AtomicDir(fs::path target) : target_(NormalizeTarget(std::move(target
                 target_.string(), ": ", ec.message());
 }
 
+AtomicDir::AtomicDir(fs::path target, OutputGuard guard, std::string option)
+    : AtomicDir((CheckOutputReplaceable(target, guard, option), target)) {
+  guarded_ = true;
+  guard_ = std::move(guard);
+  option_ = std::move(option);
+  AtomicWriteFile(temp_ / kOutputMarkerFile, guard_.stage + "\n");
+}
+
 AtomicDir::AtomicDir(AtomicDir&& other) noexcept
     : target_(std::move(other.target_)),
       temp_(std::move(other.temp_)),
       committed_(other.committed_),
-      active_(other.active_) {
+      active_(other.active_),
+      guarded_(other.guarded_),
+      guard_(std::move(other.guard_)),
+      option_(std::move(other.option_)) {
   other.active_ = false;
 }
 
@@ -137,6 +236,8 @@ AtomicDir::~AtomicDir() {
 
 void AtomicDir::Commit() {
   RELIT_CHECK(active_ && !committed_);
+  // The folder may have changed while the stage ran.
+  if (guarded_) CheckOutputReplaceable(target_, guard_, option_);
   std::error_code ec;
   const fs::path old = Sibling(target_, "old");
   const bool had_target = fs::symlink_status(target_, ec).type() != fs::file_type::not_found;

@@ -12,8 +12,33 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace relit {
+
+// The file a stage writes into every output folder it creates; its content
+// is the stage's name. A folder holding it (with the same name) may be
+// replaced by that stage on the next run.
+inline constexpr const char* kOutputMarkerFile = ".relit-output";
+
+// Who may replace an existing output folder (docs/refusals.md):
+//   - a regular file, a symbolic link or other non-folder: never;
+//   - a folder that holds (or is) one of `inputs`: never, not even with force;
+//   - an empty folder, or one with the marker of `stage` (or, for outputs
+//     written before the marker existed, a run.json whose "tool" is `stage`):
+//     yes;
+//   - any other folder: only with `force` (the stage's --force flag).
+struct OutputGuard {
+  std::string stage;                          // "relit-capture"
+  bool force = false;
+  std::vector<std::filesystem::path> inputs;  // files/folders the stage reads
+};
+
+// Throws relit::Error naming `target` and saying what to do when the rule
+// above forbids replacing it. `option` names the flag that chose the path
+// ("--out", "--workspace") for the message.
+void CheckOutputReplaceable(const std::filesystem::path& target, const OutputGuard& guard,
+                            const std::string& option = "--out");
 
 // Writes `content` to a temporary file next to `path` and renames it over
 // `path`. Creates parent directories. Throws relit::Error naming the file.
@@ -26,6 +51,9 @@ class AtomicDir {
   // (parents are created). Leftovers of earlier runs that crashed (same name
   // pattern, owning process gone) are removed first.
   explicit AtomicDir(std::filesystem::path target);
+  // The same, after CheckOutputReplaceable(target, guard); the marker file is
+  // written into the new folder and the check is repeated by Commit().
+  AtomicDir(std::filesystem::path target, OutputGuard guard, std::string option = "--out");
   // Removes the temporary directory unless Commit() succeeded.
   ~AtomicDir();
 
@@ -49,6 +77,9 @@ class AtomicDir {
   std::filesystem::path temp_;
   bool committed_ = false;
   bool active_ = true;  // false once moved from
+  bool guarded_ = false;
+  OutputGuard guard_;
+  std::string option_;
 };
 
 namespace internal {

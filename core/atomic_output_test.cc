@@ -1,6 +1,7 @@
 #include "core/atomic_output.h"
 
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <string>
 
@@ -166,6 +167,79 @@ TEST_F(AtomicOutputTest, StaleTempWithOwnPidIsReplaced) {
   AtomicDir dir(root_ / "frames");
   EXPECT_TRUE(fs::is_directory(dir.path()));
   EXPECT_FALSE(fs::exists(dir.path() / "leftover.txt"));
+}
+
+// The output-folder rule (docs/refusals.md): what a guarded AtomicDir may
+// replace. Each refusal leaves the folder and its files as they were.
+TEST_F(AtomicOutputTest, GuardRefusesFilesForeignFoldersAndFoldersHoldingInputs) {
+  const OutputGuard guard{"relit-test", false, {root_ / "user" / "v.mp4"}};
+  fs::create_directories(root_ / "user");
+  WriteText(root_ / "user" / "v.mp4", "video");
+  WriteText(root_ / "user" / "notes.txt", "mine");
+  WriteText(root_ / "file.txt", "mine");
+  fs::create_directories(root_ / "foreign");
+  WriteText(root_ / "foreign" / "a.txt", "mine");
+
+  auto error_of = [](const std::function<void()>& f) {
+    try {
+      f();
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  // The folder that holds an input: never, not even with --force.
+  OutputGuard forced = guard;
+  forced.force = true;
+  EXPECT_NE(error_of([&] { AtomicDir(root_ / "user", forced); }).find("holds the input"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { AtomicDir(root_, forced); }).find("holds the input"), std::string::npos);
+  // A regular file: never.
+  EXPECT_NE(error_of([&] { AtomicDir(root_ / "file.txt", forced); }).find("never replaces a file"),
+            std::string::npos);
+  // A folder the stage did not write: only with --force.
+  EXPECT_NE(error_of([&] { AtomicDir(root_ / "foreign", guard); }).find("--force"),
+            std::string::npos);
+  EXPECT_EQ(ReadText(root_ / "user" / "notes.txt"), "mine");
+  EXPECT_EQ(ReadText(root_ / "file.txt"), "mine");
+  EXPECT_EQ(ReadText(root_ / "foreign" / "a.txt"), "mine");
+  {
+    AtomicDir out(root_ / "foreign", forced);
+    out.Commit();
+  }
+  EXPECT_FALSE(fs::exists(root_ / "foreign" / "a.txt"));
+}
+
+TEST_F(AtomicOutputTest, GuardReplacesEmptyAndOwnFolders) {
+  const OutputGuard guard{"relit-test", false, {}};
+  fs::create_directories(root_ / "empty");
+  {
+    AtomicDir out(root_ / "empty", guard);
+    WriteText(out.path() / "x.txt", "1");
+    out.Commit();
+  }
+  EXPECT_EQ(ReadText(root_ / "empty" / kOutputMarkerFile), "relit-test\n");
+  {
+    AtomicDir out(root_ / "empty", guard);  // has our marker now
+    WriteText(out.path() / "x.txt", "2");
+    out.Commit();
+  }
+  EXPECT_EQ(ReadText(root_ / "empty" / "x.txt"), "2");
+  // Another stage's marker is not ours.
+  EXPECT_THROW(AtomicDir(root_ / "empty", OutputGuard{"relit-other", false, {}}), Error);
+  // Outputs written before the marker existed: run.json names the tool.
+  fs::create_directories(root_ / "legacy");
+  WriteText(root_ / "legacy" / "run.json", R"({"schema": "relit.run/1", "tool": "relit-test"})");
+  EXPECT_NO_THROW(AtomicDir(root_ / "legacy", guard));
+}
+
+TEST_F(AtomicOutputTest, GuardCheckIsRepeatedAtCommit) {
+  const OutputGuard guard{"relit-test", false, {}};
+  AtomicDir out(root_ / "late", guard);
+  fs::create_directories(root_ / "late");
+  WriteText(root_ / "late" / "user.txt", "written while the stage ran");
+  EXPECT_THROW(out.Commit(), Error);
+  EXPECT_EQ(ReadText(root_ / "late" / "user.txt"), "written while the stage ran");
 }
 
 }  // namespace

@@ -54,6 +54,12 @@ Intrinsics Intrinsics::FromFov(int width, int height, double horizontal_fov_rad)
 void Intrinsics::Check() const {
   RELIT_REQUIRE(width > 0 && height > 0, "camera size must be positive, got ",
                 width, "x", height, " pixels");
+  // Every image of a camera is allocated at this size: a typo such as
+  // 100000 x 100000 would exhaust memory instead of failing.
+  RELIT_REQUIRE(width <= kMaxImageSidePx && height <= kMaxImageSidePx &&
+                    static_cast<int64_t>(width) * height <= kMaxImagePixels,
+                "camera size ", width, "x", height, " pixels is larger than relit handles (sides up to ",
+                kMaxImageSidePx, ", ", kMaxImagePixels / 1000000, " megapixels): check width and height");
   RELIT_REQUIRE(fx > 0 && fy > 0 && std::isfinite(fx) && std::isfinite(fy),
                 "camera focal lengths must be positive, got fx=", fx, " fy=", fy);
   RELIT_REQUIRE(std::isfinite(cx) && std::isfinite(cy),

@@ -10,6 +10,8 @@
 //   normalised image coordinates.
 #pragma once
 
+#include <cstdint>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
@@ -56,6 +58,10 @@ struct Distortion {
   double k1 = 0, k2 = 0, p1 = 0, p2 = 0, k3 = 0;
   bool IsZero() const { return k1 == 0 && k2 == 0 && p1 == 0 && p2 == 0 && k3 == 0; }
 };
+
+// The largest camera image relit accepts (an 8K frame is 33 megapixels).
+inline constexpr int kMaxImageSidePx = 16384;
+inline constexpr int64_t kMaxImagePixels = int64_t{1} << 26;
 
 struct Intrinsics {
   int width = 0;   // pixels

@@ -7,6 +7,7 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include "core/camera.h"
 #include "core/error.h"
 
 namespace relit {
@@ -102,6 +103,12 @@ Image ReadImage(const std::string& path) {
   auto input = OIIO::ImageInput::open(path);
   RELIT_REQUIRE(input != nullptr, "cannot read image ", path, ": ", OIIO::geterror());
   const OIIO::ImageSpec& spec = input->spec();
+  // A damaged header can claim any size; allocating it would exhaust memory.
+  RELIT_REQUIRE(spec.width > 0 && spec.height > 0 && spec.nchannels > 0 && spec.nchannels <= 64 &&
+                    spec.width <= kMaxImageSidePx && spec.height <= kMaxImageSidePx &&
+                    static_cast<int64_t>(spec.width) * spec.height <= kMaxImagePixels,
+                "cannot read image ", path, ": its header claims ", spec.width, "x", spec.height, " pixels, ",
+                spec.nchannels, " channels, more than relit reads (the file may be damaged; regenerate it)");
   Image image(spec.width, spec.height, spec.nchannels);
   std::vector<std::string> names(spec.channelnames.begin(), spec.channelnames.end());
   if (static_cast<int>(names.size()) == spec.nchannels) image.set_channel_names(names);

@@ -86,6 +86,10 @@ nlohmann::json ReadJsonFile(const std::string& path, const std::string& kind, in
   } catch (const json::parse_error& e) {
     Fail(path, ": invalid JSON: ", StripExceptionId(e.what()), " (expected a ", expected,
          " file)");
+  } catch (const json::exception& e) {
+    // e.g. a number too large for a double (1e400): out_of_range, not parse_error.
+    Fail(path, ": invalid JSON: ", StripExceptionId(e.what()), " (expected a ", expected,
+         " file; numbers must fit a double)");
   }
 
   RELIT_REQUIRE(document.is_object(), path, ": expected a JSON object with \"schema\": \"",

@@ -89,6 +89,26 @@ TEST_F(JsonFileTest, ParseErrorHasLineAndColumn) {
   EXPECT_FALSE(Contains(message, "[json.exception"));
 }
 
+// Values a JSON library accepts or throws on in its own words: relit names
+// the file and says what to do (docs/refusals.md).
+TEST_F(JsonFileTest, HostileValuesNameTheFile) {
+  const std::string path = Path("huge.json");
+  WriteText(path, "{\"schema\": \"relit.cameras/2\", \"fx\": 1e400}\n");
+  const std::string message = ReadError(path, "cameras", 2);
+  EXPECT_TRUE(Contains(message, path)) << message;
+  EXPECT_TRUE(Contains(message, "fit a double")) << message;
+  json j = ToJson(Intrinsics::FromFov(640, 480, 1.1));
+  j["width"] = 100000;
+  j["height"] = 100000;
+  try {
+    IntrinsicsFromJson(j, "cameras.json: devices.view");
+    ADD_FAILURE() << "a 100000 x 100000 camera was accepted";
+  } catch (const Error& e) {
+    EXPECT_TRUE(Contains(e.what(), "cameras.json: devices.view")) << e.what();
+    EXPECT_TRUE(Contains(e.what(), "larger than relit handles")) << e.what();
+  }
+}
+
 TEST_F(JsonFileTest, MissingSchema) {
   const std::string path = Path("plain.json");
   WriteText(path, "{\"a\": 1}");

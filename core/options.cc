@@ -4,9 +4,14 @@
 #include <cctype>
 #include <charconv>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <map>
+#include <sstream>
 #include <utility>
+
+#include <yaml-cpp/depthguard.h>
+#include <yaml-cpp/eventhandler.h>
 
 #include "core/error.h"
 
@@ -85,7 +90,113 @@ bool ParseInteger(const std::string& text, T* value) {
   return result.ec == std::errc() && result.ptr == end;
 }
 
+std::string MarkText(const std::string& file, const YAML::Mark& mark) {
+  if (mark.is_null()) return file;
+  return file + ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1);
+}
+
+// Counts the nodes a YAML document expands to (aliases count as the whole
+// node they refer to) while the parser reads it, and stops it at the limits.
+class LimitHandler : public YAML::EventHandler {
+ public:
+  explicit LimitHandler(const std::string& file) : file_(file) {}
+
+  void OnDocumentStart(const YAML::Mark&) override {}
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark& mark, YAML::anchor_t anchor) override { Leaf(mark, anchor, 1); }
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t anchor) override {
+    if (++aliases_ > kMaxYamlAliases) {
+      Fail(MarkText(file_, mark), ": more than ", kMaxYamlAliases,
+           " YAML aliases (*name): write the values out instead of referring to anchors");
+    }
+    const auto it = sizes_.find(anchor);
+    Leaf(mark, 0, it == sizes_.end() ? 1 : it->second);
+  }
+  void OnScalar(const YAML::Mark& mark, const std::string&, YAML::anchor_t anchor,
+                const std::string&) override {
+    Leaf(mark, anchor, 1);
+  }
+  void OnSequenceStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t anchor,
+                       YAML::EmitterStyle::value) override {
+    Open(mark, anchor);
+  }
+  void OnSequenceEnd() override { Close(); }
+  void OnMapStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t anchor,
+                  YAML::EmitterStyle::value) override {
+    Open(mark, anchor);
+  }
+  void OnMapEnd() override { Close(); }
+
+ private:
+  struct Frame {
+    YAML::anchor_t anchor;
+    int64_t size;
+    YAML::Mark mark;
+  };
+  void Open(const YAML::Mark& mark, YAML::anchor_t anchor) {
+    if (static_cast<int>(stack_.size()) >= kMaxYamlDepth) {
+      Fail(MarkText(file_, mark), ": YAML nested deeper than ", kMaxYamlDepth,
+           " levels: relit's option files are a few levels deep; check the indentation");
+    }
+    stack_.push_back({anchor, 1, mark});
+  }
+  void Close() {
+    const Frame frame = stack_.back();
+    stack_.pop_back();
+    Leaf(frame.mark, frame.anchor, frame.size);
+  }
+  void Leaf(const YAML::Mark& mark, YAML::anchor_t anchor, int64_t size) {
+    if (anchor != 0) sizes_[anchor] = size;
+    int64_t& total = stack_.empty() ? total_ : stack_.back().size;
+    total = std::min<int64_t>(total + size, kMaxYamlExpandedNodes + 1);
+    if (total > kMaxYamlExpandedNodes) {
+      Fail(MarkText(file_, mark), ": the YAML expands to more than ", kMaxYamlExpandedNodes,
+           " values once its aliases (*name) are replaced by their anchors (&name): write the "
+           "values out, without nested aliases");
+    }
+  }
+
+  const std::string& file_;
+  std::map<YAML::anchor_t, int64_t> sizes_;
+  std::vector<Frame> stack_;
+  int64_t total_ = 0;
+  int aliases_ = 0;
+};
+
+// "file:line:col: YAML syntax error: msg", naming a tab in the indentation
+// (YAML indents with spaces only) when there is one.
+[[noreturn]] void FailSyntax(const std::string& text, const std::string& file,
+                             const YAML::ParserException& e) {
+  std::istringstream lines(text);
+  std::string line;
+  for (int number = 1; std::getline(lines, line); ++number) {
+    const size_t content = line.find_first_not_of(" \t");
+    if (content == std::string::npos || line[content] == '#') continue;
+    if (line.find('\t') < content) {
+      Fail(file, ":", number, ": YAML syntax error: a tab in the indentation; YAML indents with "
+           "spaces only, replace the tabs with spaces");
+    }
+  }
+  std::string message = e.msg;
+  if (message.rfind(YAML::ErrorMsg::BAD_FILE, 0) == 0 || message.empty()) {
+    message = "cannot be parsed (check its indentation and quotes)";
+  }
+  Fail(MarkText(file, e.mark), ": YAML syntax error: ", message);
+}
+
 }  // namespace
+
+YAML::Node LoadYaml(const std::string& text, const std::string& file) {
+  try {
+    std::istringstream stream(text);
+    YAML::Parser parser(stream);
+    LimitHandler limits(file);
+    parser.HandleNextDocument(limits);  // only the first document is loaded below
+    return YAML::Load(text);
+  } catch (const YAML::ParserException& e) {
+    FailSyntax(text, file, e);
+  }
+}
 
 OptionsReader::OptionsReader(const YAML::Node& node, std::string file, std::string context)
     : OptionsReader(node, std::move(file), std::move(context), std::make_shared<Tracker>()) {}
@@ -101,28 +212,18 @@ OptionsReader::OptionsReader(const YAML::Node& node, std::string file, std::stri
 }
 
 OptionsReader OptionsReader::FromString(const std::string& text, const std::string& file) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::ParserException& e) {
-    Fail(file, ":", e.mark.line + 1, ":", e.mark.column + 1, ": YAML syntax error: ", e.msg);
-  }
-  return OptionsReader(root, file);
+  return OptionsReader(LoadYaml(text, file), file);
 }
 
 OptionsReader OptionsReader::FromFile(const std::string& path) {
   std::error_code ec;
   RELIT_REQUIRE(std::filesystem::is_regular_file(path, ec), "options file ", path,
                 " does not exist");
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    Fail("cannot read options file ", path);
-  } catch (const YAML::ParserException& e) {
-    Fail(path, ":", e.mark.line + 1, ":", e.mark.column + 1, ": YAML syntax error: ", e.msg);
-  }
-  return OptionsReader(root, path);
+  std::ifstream in(path, std::ios::binary);
+  RELIT_REQUIRE(in, "cannot read options file ", path, ": check its permissions");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return OptionsReader(LoadYaml(text.str(), path), path);
 }
 
 std::string OptionsReader::Qualified(const std::string& key) const {

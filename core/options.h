@@ -51,6 +51,20 @@ constexpr bool kIsOptionType =
 int EditDistance(const std::string& a, const std::string& b);
 }  // namespace internal
 
+// Limits of the one YAML reader (LoadYaml): YAML aliases are expanded by
+// every consumer that walks the tree, so a few lines of nested aliases ("billion
+// laughs") would otherwise exhaust memory.
+inline constexpr int kMaxYamlAliases = 1000;
+inline constexpr int64_t kMaxYamlExpandedNodes = 100000;
+inline constexpr int kMaxYamlDepth = 64;
+
+// Parses YAML text (the first document). A syntax error, more than
+// kMaxYamlAliases aliases, more than kMaxYamlExpandedNodes nodes once aliases
+// are expanded, or nesting deeper than kMaxYamlDepth is a relit::Error
+// "file:line:col: ..." that says what to change. Every YAML file relit reads
+// goes through here.
+YAML::Node LoadYaml(const std::string& text, const std::string& file);
+
 class OptionsReader {
  public:
   // `node` must be a mapping or Null (all defaults). `file` is shown in

@@ -229,6 +229,41 @@ TEST(Options, SyntaxAndStructureErrors) {
   }
 }
 
+// Hostile YAML (docs/refusals.md): alias bombs at any depth, deep nesting
+// and tab indentation are refused with a message that says what to change;
+// a few legitimate aliases still load.
+TEST(Options, YamlLimitsRefuseAliasBombsDeepNestingAndTabs) {
+  auto error_of = [](const std::string& text) {
+    try {
+      LoadYaml(text, "bomb.yaml");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  // Nine levels of nine aliases, inside a nested section.
+  std::string bomb = "relight:\n  cues:\n    a: &a [x, x, x, x, x, x, x, x, x]\n";
+  for (char level = 'b'; level <= 'i'; ++level) {
+    const std::string prev(1, static_cast<char>(level - 1));
+    bomb += "    " + std::string(1, level) + ": &" + std::string(1, level) + " [";
+    for (int i = 0; i < 9; ++i) bomb += (i ? ", *" : "*") + prev;
+    bomb += "]\n";
+  }
+  EXPECT_TRUE(Contains(error_of(bomb), "bomb.yaml:"));
+  EXPECT_TRUE(Contains(error_of(bomb), "once its aliases"));
+  std::string many = "a: &a 1\nb: [";
+  for (int i = 0; i <= kMaxYamlAliases; ++i) many += (i ? ", *a" : "*a");
+  EXPECT_TRUE(Contains(error_of(many + "]\n"), "aliases"));
+  std::string deep;
+  for (int i = 0; i < 2000; ++i) deep += "{a: ";
+  deep += "1" + std::string(2000, '}') + "\n";
+  EXPECT_TRUE(Contains(error_of(deep), "nested deeper than"));
+  EXPECT_TRUE(Contains(error_of("a:\n\tb: 1\n"), "bomb.yaml:2: YAML syntax error: a tab in the indentation"));
+  // Legitimate anchors still work.
+  const YAML::Node ok = LoadYaml("base: &b {x: 1}\nother: *b\n", "ok.yaml");
+  EXPECT_EQ(ok["other"]["x"].as<int>(), 1);
+}
+
 TEST(Options, EditDistance) {
   EXPECT_EQ(internal::EditDistance("samples", "samples"), 0);
   EXPECT_EQ(internal::EditDistance("sampels", "samples"), 1);  // swap counts once

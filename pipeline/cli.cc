@@ -49,6 +49,8 @@ int RunRelit(int argc, char** argv) {
   status->add_option("pipeline", status_pipeline, "pipeline file (default pipeline.yaml)");
   status->add_option("--workspace,-w", status_workspace, "workspace folder W")->required();
 
+  // `relit run --log-level L` (docs/pipeline.md) as well as `relit --log-level L run`.
+  for (CLI::App* sub : {run, status}) sub->add_option("--log-level", log_level, "trace | debug | info | warn | error");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -67,10 +69,13 @@ int RunRelit(int argc, char** argv) {
   }
   if (run->parsed()) {
     const PipelineConfig config = PipelineConfig::Load(pipeline);
-    return RunPipeline(config, options, std::cout);
+    return RunPipeline(config, options, std::cout, &std::cerr);
   }
   const PipelineConfig config = PipelineConfig::Load(status_pipeline);
   std::error_code error;
+  RELIT_REQUIRE(!fs::exists(status_workspace, error) || fs::is_directory(status_workspace, error),
+                "--workspace ", status_workspace, " is a file, not a workspace folder: give the folder relit run "
+                "wrote");
   RELIT_REQUIRE(fs::is_directory(status_workspace, error), "workspace ", status_workspace,
                 " does not exist; relit run creates it");
   std::cout << "pipeline " << config.file << ", workspace "

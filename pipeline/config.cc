@@ -108,12 +108,7 @@ PipelineConfig PipelineConfig::Load(const std::string& path) {
 
 PipelineConfig PipelineConfig::FromString(const std::string& text, const std::string& file,
                                           const std::string& base_dir) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::ParserException& e) {
-    Fail(file, ":", e.mark.line + 1, ":", e.mark.column + 1, ": YAML syntax error: ", e.msg);
-  }
+  const YAML::Node root = LoadYaml(text, file);
   RELIT_REQUIRE(root.IsMap() || root.IsNull(), file,
                 ": expected a mapping of sections (inputs, board, capture, ...) at the top");
   PipelineConfig config;

@@ -88,9 +88,37 @@ TEST(PipelineConfigTest, RelightSectionTopLevelKeysAreChecked) {
   const std::string e = ErrorOf(std::string(kMinimal) + "relight:\n  train: {}\n  trian: {}\n");
   EXPECT_NE(e.find("pipeline.yaml:4"), std::string::npos) << e;
   EXPECT_NE(e.find("'relight.trian'"), std::string::npos) << e;
-  // Deeper keys belong to relit-relight, which checks them itself.
   EXPECT_EQ(ErrorOf(std::string(kMinimal) + "relight: {partitions: {layout: single}, train: {steps: 5}}\n"),
             "(no error)");
+}
+
+// relit run checks every key of pipeline.yaml before anything runs, also
+// below the second level of relight: (relit-relight's readers, no LibTorch),
+// and refuses hostile YAML and inputs that cannot be right.
+TEST(PipelineConfigTest, WholeFileIsCheckedBeforeAnythingRuns) {
+  std::string e = ErrorOf(std::string(kMinimal) + "relight:\n  train: {stesp: 10}\n");
+  EXPECT_NE(e.find("pipeline.yaml:3"), std::string::npos) << e;
+  EXPECT_NE(e.find("'relight.train.stesp'"), std::string::npos) << e;
+  EXPECT_NE(e.find("did you mean 'steps'"), std::string::npos) << e;
+  e = ErrorOf(std::string(kMinimal) + "relight:\n  model: {norm: batch}\n");
+  EXPECT_NE(e.find("relight"), std::string::npos) << e;
+  EXPECT_NE(e.find("norm"), std::string::npos) << e;
+  // An alias bomb inside a stage section.
+  std::string bomb = std::string(kMinimal) + "relight:\n  cues:\n    a: &a [1, 1, 1, 1, 1, 1, 1, 1, 1]\n";
+  for (char level = 'b'; level <= 'i'; ++level) {
+    bomb += "    " + std::string(1, level) + ": &" + std::string(1, level) + " [";
+    for (int i = 0; i < 9; ++i) bomb += std::string(i ? ", *" : "*") + static_cast<char>(level - 1);
+    bomb += "]\n";
+  }
+  e = ErrorOf(bomb);
+  EXPECT_NE(e.find("pipeline.yaml:"), std::string::npos) << e;
+  EXPECT_NE(e.find("aliases"), std::string::npos) << e;
+  // The same video for both phones.
+  e = ErrorOf("inputs: {view: v.mp4, light: ./v.mp4}\n");
+  EXPECT_NE(e.find("same file"), std::string::npos) << e;
+  TempDir dir;
+  e = ErrorOf("inputs: {view: " + dir.path().string() + ", light: l.mp4}\n");
+  EXPECT_NE(e.find("is a folder"), std::string::npos) << e;
 }
 
 TEST(PipelineConfigTest, PathsAreRelativeToTheYamlFolder) {
@@ -137,7 +165,7 @@ TEST(PipelineConfigTest, StepsGetTheirSectionAsConfigAndHashOnlyWhatTheyRead) {
       "inputs: {view: v.mp4, light: l.mp4, board_view_images: bv}\n"
       "board: {squares_x: 9, dictionary: DICT_4X4_50}\n"
       "calib: {detect: {min_corners: 8}, log_level: debug}\n"
-      "relight: {cues: {samples: 4}, train: {steps: 10}, partitions: {layout: single}}\n",
+      "relight: {cues: {samples_per_pixel: 4}, train: {steps: 10}, partitions: {layout: single}}\n",
       "/c/pipeline.yaml", "/c");
   StepGraph graph(c, "/w", false);
   graph.ExpandPartitions({0});

@@ -84,7 +84,7 @@ class PipelineRunTest : public ::testing::Test {
       "capture: {view_select: {target_frames: 50}}\n"
       "calib: {detect: {min_corners: 8}}\n"
       "reconstruct: {atlas: {resolution_px: 256}}\n"
-      "relight:\n  partitions: {count: 3}\n  train: {steps: 10}\n  cues: {samples: 2}\n";
+      "relight:\n  dataset: {holdout_every: 3}\n  train: {steps: 10}\n  cues: {samples_per_pixel: 2}\n";
 
   testing::TempDir dir_;
   fs::path bin_, calls_, yaml_, workspace_;
@@ -116,7 +116,7 @@ TEST_F(PipelineRunTest, EditingAParameterRerunsOnlyThatStepAndDownstream) {
   RunSteps();
   EditYaml("train: {steps: 10}", "train: {steps: 20}");
   EXPECT_EQ(RunSteps(), (Steps{"train-00", "train-01", "train-02", "render", "report"}));
-  EditYaml("cues: {samples: 2}", "cues: {samples: 3}");
+  EditYaml("cues: {samples_per_pixel: 2}", "cues: {samples_per_pixel: 3}");
   // New cues change the cue files, so training and everything after reruns.
   EXPECT_EQ(RunSteps(), (Steps{"cues", "train-00", "train-01", "train-02", "render", "report"}));
   EditYaml("min_corners: 8", "min_corners: 9");
@@ -274,9 +274,49 @@ TEST_F(PipelineRunTest, OnlyFromToAndForceSelectSteps) {
   EXPECT_THROW(Run(bad, &out), Error);
 }
 
+// Selections that name nothing, or a workspace that cannot be one, are
+// errors, also in a dry run (which used to say "nothing would run").
+TEST_F(PipelineRunTest, SelectionsThatRunNothingAreErrorsNotSuccess) {
+  auto error_of = [&](RunOptions options) {
+    std::string out;
+    try {
+      const int code = Run(options, &out);
+      return "exit " + std::to_string(code) + ": " + out;
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+  };
+  RunOptions options;
+  options.dry_run = true;
+  options.from = {"train-99"};
+  EXPECT_NE(error_of(options).find("relit run --to plan"), std::string::npos) << error_of(options);
+  options.from = {"report"};
+  options.to = {"capture"};
+  EXPECT_NE(error_of(options).find("selects no step"), std::string::npos) << error_of(options);
+  options.from.clear();
+  options.to.clear();
+  options.only = {"augment"};
+  EXPECT_NE(error_of(options).find("augment"), std::string::npos) << error_of(options);
+  EXPECT_EQ(error_of(options).rfind("exit 0", 0), std::string::npos) << error_of(options);
+  // A step whose upstream never ran: the dry run says it could not run.
+  options.only = {"calib"};
+  std::string out;
+  EXPECT_EQ(Run(options, &out), 1) << out;
+  // Once the plan exists, a partition that is not in it is named.
+  RunSteps();
+  options.only = {"train-07"};
+  EXPECT_NE(error_of(options).find("is not part of this pipeline"), std::string::npos) << error_of(options);
+  // A workspace path that is a file.
+  fs::remove_all(workspace_);
+  WriteText(workspace_, "not a folder");
+  options.only.clear();
+  EXPECT_NE(error_of(options).find("is a file, not a folder"), std::string::npos) << error_of(options);
+  EXPECT_EQ(ReadText(workspace_), "not a folder");
+}
+
 TEST_F(PipelineRunTest, PartitionsFollowThePlan) {
   RunSteps();
-  EditYaml("partitions: {count: 3}", "partitions: {count: 2}");
+  EditYaml("dataset: {holdout_every: 3}", "dataset: {holdout_every: 2}");
   EXPECT_EQ(RunSteps(), (Steps{"plan", "train-00", "train-01", "render", "report"}));
   const nlohmann::json lock = Lock();
   EXPECT_FALSE(lock["steps"].contains("train-02"));

@@ -46,11 +46,12 @@ std::string Join(const std::vector<std::string>& parts, const std::string& separ
 
 class Runner {
  public:
-  Runner(const PipelineConfig& config, const RunOptions& options, std::ostream& out)
+  Runner(const PipelineConfig& config, const RunOptions& options, std::ostream& out, std::ostream& err)
       : config_(config),
         options_(options),
         w_(options.workspace),
         out_(out),
+        err_(err),
         selection_(options.only, options.from, options.to, options.force),
         lock_(w_),
         hashes_((fs::path(w_) / ".relit" / "hash_cache.json").string()),
@@ -75,6 +76,7 @@ class Runner {
   std::string OutputDir(const Step& s) const { return (fs::path(w_) / s.output).string(); }
   std::string Ordinal(const Step& s) const;
   void Preflight();
+  void CheckSelectors(bool final_check) const;
   bool Schedule(std::map<std::string, std::vector<Job>>* slurm_batches);
   void MaybeExpand();
   Job Prepare(const Step& step, const Evaluation& e);
@@ -96,6 +98,7 @@ class Runner {
   const RunOptions& options_;
   const std::string w_;
   std::ostream& out_;
+  std::ostream& err_;
   Selection selection_;
   LockFile lock_;
   HashCache hashes_;
@@ -143,6 +146,28 @@ void Runner::Preflight() {
   RELIT_REQUIRE(lines.empty(), "stage executables not found: ", Join(lines, "; "),
                 ". Build them (tools/build) or set their paths under tools: in ", config_.file,
                 ", or stop earlier with --to STEP");
+}
+
+// Every selector must name a step. The partition steps (train-KK,
+// augment-KK) exist once plan has run, so before that they are only checked
+// at the end (final_check), unless a dry run's plan would run.
+void Runner::CheckSelectors(bool final_check) const {
+  for (const std::string& selector : selection_.Selectors()) {
+    bool found = false;
+    for (const Step& step : graph_.steps()) found = found || SelectorMatches(selector, step);
+    if (found) continue;
+    const bool partition_kind = selector.rfind("train", 0) == 0 || selector.rfind("augment", 0) == 0;
+    if (partition_kind && !graph_.expanded()) {
+      const auto plan = states_.find("plan");
+      if (!final_check || (plan != states_.end() && plan->second == State::kWouldRun)) continue;
+      Fail("step '", selector, "' does not exist yet: the train-KK and augment-KK steps come from the plan, and ",
+           w_, "/relight/plan/plan.json is missing; run relit run --to plan first");
+    }
+    std::vector<std::string> names;
+    for (const Step& step : graph_.steps()) names.push_back(step.name);
+    Fail("step '", selector, "' is not part of this pipeline (", config_.file, "); its steps are ",
+         Join(names, ", "), selector.rfind("augment", 0) == 0 ? " (augment runs when relight.augment is set up)" : "");
+  }
 }
 
 void Runner::MaybeExpand() {
@@ -389,15 +414,25 @@ void Runner::WriteRunRecord(int code) {
 
 int Runner::Finish(int code) {
   if (::isatty(2)) std::cerr << "\r\033[K" << std::flush;
+  if (code == 0) CheckSelectors(/*final_check=*/true);
   if (!options_.dry_run) WriteRunRecord(code);
   if (options_.dry_run) {
+    if (!failures_.empty()) {
+      // The real run would stop here: a dry run must not look like success.
+      out_ << std::flush;
+      err_ << "relit run --dry-run: " << failures_.size() << " step(s) could not run:\n";
+      for (const std::string& f : failures_) err_ << "  " << f << "\n";
+      err_ << std::flush;
+      return 1;
+    }
     if (would_run_.empty()) out_ << "everything is up to date; nothing would run\n";
     return 0;
   }
   if (!failures_.empty()) {
-    out_ << "relit run: " << failures_.size() << " step(s) failed:\n";
-    for (const std::string& f : failures_) out_ << "  " << f << "\n";
-    out_ << "fix the cause and run relit run again: accepted steps are not redone" << std::endl;
+    out_ << std::flush;
+    err_ << "relit run: " << failures_.size() << " step(s) failed:\n";
+    for (const std::string& f : failures_) err_ << "  " << f << "\n";
+    err_ << "fix the cause and run relit run again: accepted steps are not redone" << std::endl;
     hashes_.Save();
     return code == 0 ? 1 : code;
   }
@@ -411,6 +446,7 @@ int Runner::Finish(int code) {
 }
 
 int Runner::Run() {
+  CheckSelectors(/*final_check=*/false);
   if (!options_.dry_run) Preflight();
   std::unique_ptr<WorkspaceRunLock> run_lock;
   if (!options_.dry_run) run_lock = std::make_unique<WorkspaceRunLock>(w_);
@@ -463,12 +499,17 @@ int Runner::Run() {
 
 }  // namespace
 
-int RunPipeline(const PipelineConfig& config, const RunOptions& options, std::ostream& out) {
+int RunPipeline(const PipelineConfig& config, const RunOptions& options, std::ostream& out, std::ostream* err) {
   RELIT_REQUIRE(!options.workspace.empty(), "no workspace: pass --workspace W");
   RunOptions absolute = options;
   absolute.workspace = fs::absolute(options.workspace).lexically_normal().string();
+  std::error_code error;
+  const fs::file_status status = fs::status(absolute.workspace, error);
+  RELIT_REQUIRE(status.type() == fs::file_type::not_found || status.type() == fs::file_type::directory,
+                "--workspace ", options.workspace, " is a file, not a folder: give a folder path (relit run "
+                "creates it)");
   if (!options.dry_run) fs::create_directories(fs::path(absolute.workspace) / ".relit");
-  Runner runner(config, absolute, out);
+  Runner runner(config, absolute, out, err ? *err : out);
   return runner.Run();
 }
 

@@ -25,9 +25,13 @@ struct RunOptions {
 };
 
 // Runs the pipeline; returns the process exit code (0 ok, 1 a step failed,
-// 130 interrupted). Messages for the user go to `out`; a live progress line
-// is drawn on stderr when it is a terminal.
-int RunPipeline(const PipelineConfig& config, const RunOptions& options, std::ostream& out);
+// 130 interrupted). Messages for the user go to `out`, failures to `err`
+// (`out` when null); a live progress line is drawn on stderr when it is a
+// terminal. A --only/--from/--to/--force selector that names no step of the
+// pipeline, a --from/--to pair that selects nothing, a workspace path that
+// is a file, and (dry run) a step that would be blocked are errors.
+int RunPipeline(const PipelineConfig& config, const RunOptions& options, std::ostream& out,
+                std::ostream* err = nullptr);
 
 struct StepStatus {
   std::string name;

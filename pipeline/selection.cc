@@ -74,6 +74,30 @@ Selection::Selection(std::vector<std::string> only, std::vector<std::string> fro
                     "partition), render, export, report, or relight for all relight steps");
     }
   }
+  // --from F --to T runs the steps between them: T must not come before F.
+  for (const std::string& f : from_) {
+    for (const std::string& t : to_) {
+      bool overlap = false;
+      for (const std::string& fk : KindsOf(f)) {
+        std::vector<std::string> after = DownstreamKinds(fk);
+        after.push_back(fk);
+        for (const std::string& tk : KindsOf(t)) {
+          std::vector<std::string> before = UpstreamKinds(tk);
+          before.push_back(tk);
+          for (const std::string& k : after) overlap = overlap || Contains(before, k);
+        }
+      }
+      RELIT_REQUIRE(overlap, "--from ", f, " --to ", t, " selects no step: ", t, " does not come after ", f,
+                    " in the pipeline (capture, calib, reconstruct, cues, plan, train, augment, render, "
+                    "export, eval, report); swap them or drop one");
+    }
+  }
+}
+
+std::vector<std::string> Selection::Selectors() const {
+  std::vector<std::string> all;
+  for (const auto* list : {&only_, &from_, &to_, &force_}) all.insert(all.end(), list->begin(), list->end());
+  return all;
 }
 
 bool Selection::Selected(const Step& step) const {

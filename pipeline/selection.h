@@ -21,6 +21,8 @@ class Selection {
   // Whether it runs even when up to date (--force, and --from's steps).
   bool Forced(const Step& step) const;
   bool empty() const { return only_.empty() && from_.empty() && to_.empty(); }
+  // Every selector given (--only, --from, --to, --force).
+  std::vector<std::string> Selectors() const;
 
  private:
   std::vector<std::string> only_, from_, to_, force_;

@@ -45,7 +45,7 @@ class PipelineSlurmTest : public ::testing::Test {
         "run: {executor: " + executor + "}\n"
         "slurm:\n  steps: [cues, train]\n  poll_s: 0.3\n"
         "  resources: {cpus: 1, memory: 200M, time: '00:05:00'}\n"
-        "relight: {partitions: {count: 3}, train: {steps: 10}}\n");
+        "relight: {dataset: {holdout_every: 3}, train: {steps: 10}}\n");
     RunOptions options;
     options.workspace = (dir / "ws").string();
     options.poll_interval_s = 0.05;

@@ -3,16 +3,15 @@
 // "pipeline.yaml:31: unknown key 'calib.detect.min_corner'" before any step
 // runs, not as an error of a generated per-step file an hour later.
 //
-// The relight stage links LibTorch; the orchestrator does not, so for
-// `relight:` only the top-level keys of the relight contract are checked here
-// and relit-relight checks the rest when its first step starts.
-#include <set>
-
+// The relight stage links LibTorch; the orchestrator does not: relight's
+// option readers live in relit_relight_data (relight/relight_options.cc), so
+// `relight:` is checked to the last key here too.
 #include "calib/calib_options.h"
 #include "capture/capture_options.h"
 #include "core/error.h"
 #include "pipeline/config.h"
 #include "reconstruct/reconstruct_options.h"
+#include "relight/relight_options.h"
 
 namespace relit::pipeline::internal {
 
@@ -85,30 +84,18 @@ void CheckStageSections(const PipelineConfig& config, const YAML::Node& root) {
     }
   }
   {
-    // The relight contract: the file holds these sections; each sub-step reads
-    // all of them.
+    // The whole relight section, with relit-relight's own readers (no
+    // LibTorch: relit_relight_data), so `relight: {train: {stesp: 10}}` fails
+    // here, not when the train step starts.
     OptionsReader section = reader.Child("relight");
-    for (const char* key : {"cues", "dataset", "partitions", "model", "train", "augment", "render", "export", "eval"}) {
-      if (section.Has(key)) {
-        section.Child(key);  // must be a mapping; its keys are relit-relight's to check
-      } else {
-        section.Ignore(key);
-      }
-    }
-    std::string log_level;
-    section.Read("log_level", &log_level);
-    // Finish() would also walk the children opened above, whose keys only
-    // relit-relight knows; check the top level by hand.
-    const YAML::Node& node = config.relight;
-    if (node.IsMap()) {
-      const std::set<std::string> known = {"cues",   "dataset", "partitions", "model", "train",
-                                           "augment", "render", "export",    "eval",  "log_level"};
-      for (const auto& entry : node) {
-        const std::string key = entry.first.as<std::string>();
-        RELIT_REQUIRE(known.count(key), config.file, ":", entry.first.Mark().line + 1,
-                      ": unknown key 'relight.", key,
-                      "' (known keys: augment, cues, dataset, eval, export, log_level, model, partitions, render, train)");
-      }
+    try {
+      relight::CheckRelightSection(section);
+    } catch (const Error& e) {
+      const std::string message = e.what();
+      // Reader errors already start with "pipeline.yaml:LINE"; value checks
+      // get the file and section in front.
+      if (message.rfind(config.file, 0) == 0) throw;
+      Fail(Prefix(config, "relight"), message);
     }
   }
 }

@@ -80,7 +80,7 @@ case "$sub" in
     ;;
   plan)
     note plan
-    n=$(sed -n 's/.*count: *\([0-9][0-9]*\).*/\1/p' "$cfg" | head -n 1)
+    n=$(sed -n 's/.*holdout_every: *\([0-9][0-9]*\).*/\1/p' "$cfg" | head -n 1)
     n=${n:-3}
     mkdir -p "$W/relight/plan.tmp.$$"
     {

@@ -10,7 +10,9 @@
 //   RELIT_TEST_FAIL         step name that exits 3 (e.g. "calib", "train-01")
 //   RELIT_TEST_SLEEP_S      seconds every train step sleeps (default 0)
 //   RELIT_TEST_TRAIN_MARK   folder: train steps touch <folder>/train-KK.started
-// plan writes as many partitions as the relight config's "count: N" (3).
+// plan writes as many partitions as the relight config's
+// "dataset: {holdout_every: N}" (3): a real key, since relit run checks the
+// whole relight: section.
 #pragma once
 
 #include <filesystem>

@@ -256,6 +256,22 @@ render::TriangleMesh CleanupMesh(const render::TriangleMesh& input, const Cleanu
   render::TriangleMesh out = FromMesh(mesh);
   if (options.cut_small_handles) report->handles_cut = CutSmallHandles(&out, options.cut_off_fraction);
   if (options.remove_self_intersections) {
+    // The self-intersection pass needs a closed surface; say what to change
+    // in the user's terms rather than the pass's.
+    std::vector<Point> check_points;
+    std::vector<Polygon> check_polygons;
+    ToSoup(out, nullptr, &check_points, &check_polygons);
+    const bool closed_manifold = PMP::orient_polygon_soup(check_points, check_polygons);
+    Mesh check;
+    PMP::polygon_soup_to_polygon_mesh(check_points, check_polygons, check);
+    RELIT_REQUIRE(closed_manifold && !check_polygons.empty() && CGAL::is_closed(check),
+                  "reconstruct: the proxy is not a closed surface after cleanup (", report->input_faces,
+                  " faces in, ", report->cropped_faces, " kept above z = ", options.crop_margin_m,
+                  " m, ", out.triangles.size(), " after repair). A mesh given with --mesh must be closed "
+                  "(watertight) and manifold; faces at or below z = ", options.crop_margin_m,
+                  " m are cropped, so a low-poly object resting on the board loses its sides: lift it, "
+                  "subdivide it, or set reconstruct cleanup.crop_margin_m: 0; or turn this pass off with "
+                  "cleanup.remove_self_intersections: false");
     report->self_intersection_faces_replaced = RemoveSelfIntersections(&out, options.self_intersection_rounds);
   }
   report->output_faces = static_cast<int>(out.triangles.size());

@@ -160,5 +160,39 @@ TEST(DropNonFiniteVertices, ItsHolesAreFilledByTheCleanup) {
   EXPECT_EQ(stats.components, 1);
 }
 
+// A user mesh that cannot become a closed proxy (a low-poly box resting on
+// the board: the crop removes every face touching z <= 2 mm; a sphere with a
+// fin triangle) fails with what to change, not with internal pass names.
+TEST(CleanupMesh, MeshThatCannotCloseSaysWhatToChange) {
+  render::TriangleMesh box;
+  for (int i = 0; i < 8; ++i) {
+    box.positions.emplace_back(i & 1 ? 0.03f : -0.03f, i & 2 ? 0.03f : -0.03f, i & 4 ? 0.06f : 0.0f);
+  }
+  const int faces[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                            {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  for (const auto& f : faces) box.triangles.emplace_back(f[0], f[1], f[2]);
+  render::TriangleMesh fin = ClosedSphere(16, 8);
+  for (Eigen::Vector3f& p : fin.positions) p.z() += 0.1f;
+  const int top = 0;  // the north pole
+  fin.positions.emplace_back(0.0f, 0.0f, 0.2f);
+  fin.positions.emplace_back(0.01f, 0.0f, 0.2f);
+  fin.triangles.emplace_back(top, static_cast<int>(fin.positions.size()) - 2,
+                             static_cast<int>(fin.positions.size()) - 1);
+  for (const render::TriangleMesh* mesh : {&box, &fin}) {
+    CleanupOptions options;
+    CropRegion crop;
+    CleanupReport report;
+    try {
+      const render::TriangleMesh clean = CleanupMesh(*mesh, options, crop, &report);
+      ExpectCleanSurface(clean);  // a repair that closes it is fine too
+    } catch (const relit::Error& e) {
+      const std::string message = e.what();
+      EXPECT_EQ(message.find("CleanupMesh"), std::string::npos) << message;
+      EXPECT_EQ(message.find("RemoveSelfIntersections"), std::string::npos) << message;
+      EXPECT_NE(message.find("crop_margin_m"), std::string::npos) << message;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace relit::reconstruct

@@ -62,7 +62,8 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
   }
   RELIT_REQUIRE(!frames.empty(), "reconstruct: ", cameras_path, " has no phone V frame with an undistorted image");
 
-  AtomicDir out(workspace / "reconstruct");
+  AtomicDir out(workspace / "reconstruct", OutputGuard{"relit-reconstruct", options.force, {options.mesh}},
+                "--workspace");
   const fs::path root = out.path();
   LogFileScope log_scope{level};
   InitLogging((root / "reconstruct.log").string(), level);
@@ -249,6 +250,8 @@ int RunReconstruct(int argc, char** argv) {
   std::string method;
   app.add_option("--proxy-method", method, "dense (default) | sparse | mesh (see docs/reconstruct.md)");
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
+  bool force = false;
+  app.add_flag("--force", force, "replace a W/reconstruct folder that relit-reconstruct did not write");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -265,6 +268,7 @@ int RunReconstruct(int argc, char** argv) {
     options.proxy.method = "mesh";
   }
   if (!method.empty()) options.proxy.method = method;
+  options.force = force;
   if (!log_level.empty()) options.log_level = log_level;
   SetVerbosity(ParseLogLevel(options.log_level));
   options.Check();

@@ -221,6 +221,9 @@ struct ReconstructOptions {
   std::string workspace;                // W: reads W/calib, writes W/reconstruct
   std::string mesh;                     // user-supplied mesh (OBJ/PLY, world frame); needs proxy.method: mesh
   std::string log_level = "info";
+  // --force: replace an output folder that relit did not write (never one
+  // holding an input, never a file). Not an option of the config file.
+  bool force = false;
   int max_matte_frames = 0;             // 0 = every phone V frame
   ProxyOptions proxy;
   CleanupOptions cleanup;

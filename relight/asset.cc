@@ -79,10 +79,11 @@ AssetDescription ReadAsset(const std::string& dir) {
   return asset;
 }
 
-void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRecord& record) {
+void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRecord& record,
+                 const OutputGuard* guard) {
   const AssetDescription asset = DescribeWorkspace(workspace);
   const Plan plan = ReadPlan((fs::path(workspace) / "relight" / "plan" / "plan.json").string());
-  AtomicDir out(out_dir);
+  AtomicDir out = guard ? AtomicDir(out_dir, *guard) : AtomicDir(out_dir);
   const fs::path root = out.path();
   fs::copy_file(asset.mesh, root / "proxy.obj");
   json partitions = json::array();

@@ -18,6 +18,7 @@
 
 #include <Eigen/Core>
 
+#include "core/atomic_output.h"
 #include "core/camera.h"
 #include "relight/partitions.h"
 #include "relight/support_plane.h"
@@ -54,7 +55,9 @@ AssetDescription DescribeWorkspace(const std::string& workspace, ModelSet models
 // From an exported folder. Throws relit::Error naming the file.
 AssetDescription ReadAsset(const std::string& dir);
 
-// Writes the asset folder `out_dir` (atomically) from a workspace.
-void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRecord& record);
+// Writes the asset folder `out_dir` (atomically) from a workspace. `guard`
+// (a user's --out) applies the output-folder rule to `out_dir`.
+void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRecord& record,
+                 const OutputGuard* guard = nullptr);
 
 }  // namespace relit::relight

@@ -30,47 +30,8 @@ namespace relit::relight {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-void AugmentOptions::Read(OptionsReader& r) {
-  r.Read("enabled", &enabled);
-  r.ReadRange("maps", &maps, 0, 100000);
-  r.Read("map_dir", &map_dir);
-  r.ReadRange("map_width_px", &map_width_px, 16, 8192);
-  r.ReadRange("maps_per_view", &maps_per_view, 1, 1000);
-  r.ReadRange("directions", &directions, 1, 100000);
-  r.Read("sampling", &sampling);
-  r.ReadRange("views", &views, 0, 1000000);
-  r.ReadRange("resolution_scale", &resolution_scale, 0.05, 1.0);
-  r.ReadRange("samples_per_pixel", &samples_per_pixel, 1, 1 << 16);
-  r.ReadRange("map_samples_per_pixel", &map_samples_per_pixel, 1, 1 << 16);
-  r.ReadRange("exposure", &exposure, 1e-6, 1e6);
-  r.ReadRange("steps", &steps, 1, 100000000);
-  r.ReadRange("checkpoint_every", &checkpoint_every, 1, 100000000);
-  r.ReadRange("log_every", &log_every, 1, 100000000);
-  r.Read("seed", &seed);
-  r.Finish();
-  Check();
-}
 
-void AugmentOptions::Check() const {
-  RELIT_REQUIRE(sampling == "importance" || sampling == "all",
-                "augment.sampling must be 'importance' or 'all', got '", sampling, "'");
-  RELIT_REQUIRE(maps >= 0 && maps_per_view >= 1 && directions >= 1, "augment.maps must be >= 0, "
-                "augment.maps_per_view and augment.directions >= 1");
-  RELIT_REQUIRE(map_width_px >= 16 && map_width_px % 2 == 0, "augment.map_width_px must be even and >= 16");
-  RELIT_REQUIRE(resolution_scale > 0 && resolution_scale <= 1, "augment.resolution_scale must be in (0, 1]");
-  RELIT_REQUIRE(steps >= 1 && checkpoint_every >= 1 && log_every >= 1,
-                "augment.steps, checkpoint_every and log_every must be >= 1");
-  RELIT_REQUIRE(map_dir.empty() || fs::is_directory(map_dir), "augment.map_dir ", map_dir, " is not a folder");
-}
 
-json AugmentOptions::ToJson() const {
-  return {{"enabled", enabled}, {"maps", maps}, {"map_dir", map_dir}, {"map_width_px", map_width_px},
-          {"maps_per_view", maps_per_view}, {"directions", directions}, {"sampling", sampling},
-          {"views", views}, {"resolution_scale", resolution_scale}, {"samples_per_pixel", samples_per_pixel},
-          {"map_samples_per_pixel", map_samples_per_pixel},
-          {"exposure", exposure}, {"steps", steps}, {"checkpoint_every", checkpoint_every},
-          {"log_every", log_every}, {"seed", seed}};
-}
 
 namespace {
 

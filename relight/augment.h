@@ -38,6 +38,7 @@
 
 #include "relight/model.h"
 #include "relight/train_stage.h"
+#include "relight/learn_options.h"
 
 namespace relit {
 class OptionsReader;
@@ -46,28 +47,6 @@ class RunRecord;
 
 namespace relit::relight {
 
-struct AugmentOptions {
-  bool enabled = true;               // the pipeline runs augment steps
-  int maps = 60;                     // procedural maps in the set (DNL used 90 captured ones)
-  std::string map_dir;               // optional folder of .exr/.hdr maps (equirectangular, +Z up)
-  int map_width_px = 256;
-  int maps_per_view = 5;
-  int directions = 100;              // directional lights per view
-  std::string sampling = "importance";  // "importance" | "all"
-  int views = 0;                     // augmented training views per partition; 0 = all
-  double resolution_scale = 1.0;     // augmented frames' size / the training frames' size
-  int samples_per_pixel = 4;         // cue paths per pixel under each directional light
-  int map_samples_per_pixel = 16;    // cue paths per pixel under a map (the networks' input)
-  double exposure = 1.0;             // map irradiance / the flash's at the capture distance
-  int steps = 1000;                  // fine-tuning steps, alternating captured / augmented
-  int checkpoint_every = 250;
-  int log_every = 10;
-  uint64_t seed = 1;
-
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
-};
 
 struct AugmentStageResult {
   bool skipped = false;

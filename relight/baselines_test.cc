@@ -17,7 +17,9 @@
 #include "core/options.h"
 #include "relight/asset.h"
 #include "relight/compare.h"
+#include "relight/augment.h"
 #include "relight/relight_options.h"
+#include "relight/train_stage.h"
 #include "relight/test_workspace.h"
 
 namespace relit::relight {

@@ -27,11 +27,6 @@ using nlohmann::json;
 
 namespace {
 
-const std::vector<std::string>& KnownMethods() {
-  static const std::vector<std::string> methods = {"model", "model_point_light", "cues_only"};
-  return methods;
-}
-
 // truth.json's RGB strengths are a number or [r, g, b].
 Eigen::Vector3d Rgb(const json& j, const std::string& key, const std::string& where) {
   const json& v = JsonField(j, key, where);
@@ -43,47 +38,8 @@ json ToJsonArray(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v
 
 }  // namespace
 
-void EvalOptions::Read(OptionsReader& r) {
-  r.Read("methods", &methods);
-  r.ReadRange("samples_per_pixel", &samples_per_pixel, 0, 1 << 16);
-  r.Read("seed", &seed);
-  r.ReadRange("max_views", &max_views, 0, 100000);
-  r.ReadRange("baseline_resolution_px", &baseline_resolution_px, 1, 4096);
-  r.ReadRange("baseline_ridge", &baseline_ridge, 0.0, 1e9);
-  r.ReadRange("error_map_scale", &error_map_scale, 0.0, 1e6);
-  r.ReadRange("clip_radiance", &clip_radiance, 0.0, 1e9);
-  r.Read("write_images", &write_images);
-  r.Finish();
-  Check();
-}
 
-void EvalOptions::Check() const {
-  RELIT_REQUIRE(!methods.empty(), "eval.methods must list at least one of model, model_point_light, cues_only");
-  std::set<std::string> seen;
-  for (const std::string& m : methods) {
-    RELIT_REQUIRE(std::find(KnownMethods().begin(), KnownMethods().end(), m) != KnownMethods().end(),
-                  "eval.methods: unknown method '", m, "' (known: model, model_point_light, cues_only)");
-    RELIT_REQUIRE(seen.insert(m).second, "eval.methods lists '", m, "' twice");
-  }
-  RELIT_REQUIRE(samples_per_pixel >= 0, "eval.samples_per_pixel must be >= 0 (0 = render.samples_per_pixel)");
-  RELIT_REQUIRE(max_views >= 0, "eval.max_views must be >= 0 (0 = all)");
-  RELIT_REQUIRE(baseline_resolution_px >= 1, "eval.baseline_resolution_px must be >= 1");
-  RELIT_REQUIRE(baseline_ridge >= 0, "eval.baseline_ridge must be >= 0");
-  RELIT_REQUIRE(error_map_scale > 0, "eval.error_map_scale must be > 0");
-  RELIT_REQUIRE(clip_radiance >= 0, "eval.clip_radiance must be >= 0 (the capture's linear white level; 0 = no clip)");
-}
 
-json EvalOptions::ToJson() const {
-  return {{"methods", methods},
-          {"samples_per_pixel", samples_per_pixel},
-          {"seed", seed},
-          {"max_views", max_views},
-          {"baseline_resolution_px", baseline_resolution_px},
-          {"baseline_ridge", baseline_ridge},
-          {"error_map_scale", error_map_scale},
-          {"clip_radiance", clip_radiance},
-          {"write_images", write_images}};
-}
 
 TruthEvalSet ReadTruthEvalSet(const std::string& truth_json) {
   RELIT_REQUIRE(fs::exists(truth_json), "ground truth ", truth_json,
@@ -254,7 +210,8 @@ EvalImageResult TruthNoiseFloor(const TruthView& view, const TruthLight& light, 
 }  // namespace
 
 EvalSummary RunEval(const std::string& workspace, const std::string& truth_json, const std::string& out_dir,
-                    const EvalOptions& options, const RenderStageOptions& render, RunRecord& record) {
+                    const EvalOptions& options, const RenderStageOptions& render, RunRecord& record,
+                    const OutputGuard* guard) {
   options.Check();
   render.Check();
   const fs::path root = fs::absolute(workspace);
@@ -354,7 +311,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
   const size_t view_count =
       options.max_views > 0 ? std::min<size_t>(options.max_views, truth.views.size()) : truth.views.size();
 
-  AtomicDir out(out_dir);
+  AtomicDir out = guard ? AtomicDir(out_dir, *guard) : AtomicDir(out_dir);
   std::vector<EvalImageResult> results, floors;
   json zooms = json::array();  // truth | methods strips zoomed on the object, one per image
   Progress progress("eval", static_cast<int64_t>(view_count * truth.lights.size()));

@@ -30,6 +30,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "core/atomic_output.h"
 #include "core/camera.h"
 #include "core/image.h"
 #include "relight/cue_frames.h"
@@ -161,8 +162,10 @@ struct EvalSummary {
 std::string ModelVariantLabel(const CueFormat& format);
 
 // Scores `workspace` against `truth_json` into `out_dir` (atomically).
-// `render` gives the default samples per pixel.
+// `render` gives the default samples per pixel. `guard` (a user's --out)
+// applies the output-folder rule to `out_dir`.
 EvalSummary RunEval(const std::string& workspace, const std::string& truth_json, const std::string& out_dir,
-                    const EvalOptions& options, const RenderStageOptions& render, RunRecord& record);
+                    const EvalOptions& options, const RenderStageOptions& render, RunRecord& record,
+                    const OutputGuard* guard = nullptr);
 
 }  // namespace relit::relight

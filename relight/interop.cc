@@ -17,40 +17,8 @@ namespace relit::relight {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-void InteropOptions::Read(OptionsReader& r) {
-  r.Read("enabled", &enabled);
-  r.Read("link_images", &link_images);
-  r.ReadRange("bake_views", &bake_views, 1, 1000);
-  r.ReadRange("bake_texture_px", &bake_texture_px, 16, 16384);
-  r.ReadRange("bake_width_px", &bake_width_px, 0, 16384);
-  r.ReadRange("bake_samples_per_pixel", &bake_samples_per_pixel, 0, 1 << 16);
-  r.Read("bake_environment_radiance", &bake_environment_radiance);
-  r.Read("bake_exposure", &bake_exposure);
-  r.Finish();
-  Check();
-}
 
-void InteropOptions::Check() const {
-  RELIT_REQUIRE(bake_views >= 1, "interop.bake_views must be >= 1");
-  RELIT_REQUIRE(bake_texture_px >= 16 && (bake_texture_px & (bake_texture_px - 1)) == 0,
-                "interop.bake_texture_px must be a power of two >= 16, got ", bake_texture_px);
-  RELIT_REQUIRE(bake_width_px >= 0 && bake_width_px % 4 == 0,
-                "interop.bake_width_px must be 0 (training size) or a multiple of 4 (the networks downsample twice)");
-  RELIT_REQUIRE(bake_samples_per_pixel >= 0, "interop.bake_samples_per_pixel must be >= 0 (0 = as the cues)");
-  RELIT_REQUIRE(bake_environment_radiance > 0, "interop.bake_environment_radiance must be > 0");
-  RELIT_REQUIRE(bake_exposure > 0, "interop.bake_exposure must be > 0");
-}
 
-json InteropOptions::ToJson() const {
-  return {{"enabled", enabled},
-          {"link_images", link_images},
-          {"bake_views", bake_views},
-          {"bake_texture_px", bake_texture_px},
-          {"bake_width_px", bake_width_px},
-          {"bake_samples_per_pixel", bake_samples_per_pixel},
-          {"bake_environment_radiance", bake_environment_radiance},
-          {"bake_exposure", bake_exposure}};
-}
 
 CamerasFile ReadCalibCameras(const std::string& workspace) {
   const fs::path path = fs::absolute(workspace) / "calib" / "cameras.json";

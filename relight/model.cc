@@ -26,122 +26,14 @@ double RequireMaxRadiance(double max_radiance) {
 
 }  // namespace
 
-NeuralTextureOptions ModelOptions::TextureOptions() const {
-  NeuralTextureOptions t;
-  t.resolution_px = texture_resolution_px;
-  t.channels_per_basis = channels_per_basis;
-  t.mip_levels = mip_levels;
-  t.init_min = 1.0 - texture_init_spread;
-  t.init_max = 1.0 + texture_init_spread;
-  if (format.is_sh()) {
-    t.basis_count = 1;  // C pass-through channels
-    t.extra_channels = format.light_channels();
-  } else {
-    t.basis_count = static_cast<int>(format.bases.size());
-  }
-  return t;
-}
 
-GeneratorOptions ModelOptions::RendererOptions() const {
-  GeneratorOptions g;
-  g.input_channels = TextureOptions().channels();
-  g.output_channels = 3;
-  g.ngf = ngf;
-  g.n_blocks = n_blocks;
-  g.upsampling = upsampling;
-  g.norm = norm;
-  g.input_skip = input_skip;
-  g.output_tanh = true;
-  return g;
-}
 
-GeneratorOptions ModelOptions::MaskOptions() const {
-  GeneratorOptions g = RendererOptions();
-  g.output_channels = 1;
-  g.ngf = mask_ngf;
-  g.n_blocks = mask_n_blocks;
-  g.output_tanh = false;  // a logit
-  return g;
-}
 
-void ModelOptions::Read(OptionsReader& reader) {
-  reader.ReadRange("texture_resolution_px", &texture_resolution_px, 1, 8192);
-  reader.ReadRange("channels_per_basis", &channels_per_basis, 1, 64);
-  reader.ReadRange("mip_levels", &mip_levels, 0, 14);
-  reader.ReadRange("ngf", &ngf, 1, 512);
-  reader.ReadRange("n_blocks", &n_blocks, 0, 64);
-  reader.ReadRange("mask_ngf", &mask_ngf, 1, 512);
-  reader.ReadRange("mask_n_blocks", &mask_n_blocks, 0, 64);
-  reader.Read("upsampling", &upsampling);
-  reader.Read("norm", &norm);
-  reader.Read("input_skip", &input_skip);
-  reader.ReadRange("texture_init_spread", &texture_init_spread, 0.0, 1.0);
-  reader.Read("max_radiance", &max_radiance);
-  reader.Read("device", &device);
-  reader.Finish();
-  Check();
-}
 
-void ModelOptions::Check() const {
-  format.Check();
-  TextureOptions().Check();
-  RendererOptions().Check();
-  MaskOptions().Check();
-  RELIT_REQUIRE(std::isfinite(max_radiance) && max_radiance >= 0,
-                "model max_radiance must be finite and >= 0 (0 = set from the data), got ", max_radiance);
-  RELIT_REQUIRE(device == "cpu" || device == "cuda" || device == "auto",
-                "model device must be cpu, cuda or auto, got '", device, "'");
-}
 
-nlohmann::json ModelOptions::ToJson() const {
-  nlohmann::json j = {{"texture_resolution_px", texture_resolution_px},
-          {"channels_per_basis", channels_per_basis},
-          {"mip_levels", mip_levels},
-          {"ngf", ngf},
-          {"n_blocks", n_blocks},
-          {"mask_ngf", mask_ngf},
-          {"mask_n_blocks", mask_n_blocks},
-          {"upsampling", upsampling},
-          {"norm", norm},
-          {"input_skip", input_skip},
-          {"texture_init_spread", texture_init_spread},
-          {"max_radiance", max_radiance},
-          {"device", device}};
-  if (!format.is_default()) j.update(format.ToJson());
-  return j;
-}
 
-void TrainOptions::Read(OptionsReader& reader) {
-  reader.Read("learning_rate", &learning_rate);
-  reader.Read("texture_learning_rate", &texture_learning_rate);
-  reader.Read("beta1", &beta1);
-  reader.Read("beta2", &beta2);
-  reader.ReadRange("batch_size", &batch_size, 1, 1024);
-  reader.ReadRange("crop_px", &crop_px, 0, 8192);
-  reader.Read("mask_loss_weight", &mask_loss_weight);
-  reader.Read("seed", &seed);
-  reader.ReadRange("threads", &threads, 1, 256);
-  reader.Finish();
-  Check();
-}
 
-void TrainOptions::Check() const {
-  RELIT_REQUIRE(learning_rate > 0 && learning_rate < 1, "learning_rate must be in (0, 1), got ", learning_rate);
-  RELIT_REQUIRE(texture_learning_rate >= 0 && texture_learning_rate < 1,
-                "texture_learning_rate must be in [0, 1) (0 = learning_rate), got ", texture_learning_rate);
-  RELIT_REQUIRE(beta1 >= 0 && beta1 < 1 && beta2 >= 0 && beta2 < 1, "Adam beta1/beta2 must be in [0, 1)");
-  RELIT_REQUIRE(batch_size >= 1, "batch_size must be >= 1, got ", batch_size);
-  RELIT_REQUIRE(crop_px == 0 || (crop_px >= 8 && crop_px % 4 == 0),
-                "crop_px must be 0 (no crop) or a multiple of 4 that is >= 8, got ", crop_px);
-  RELIT_REQUIRE(mask_loss_weight >= 0 && std::isfinite(mask_loss_weight), "mask_loss_weight must be >= 0");
-  RELIT_REQUIRE(threads >= 1 && threads <= 256, "threads must be in [1, 256], got ", threads);
-}
 
-nlohmann::json TrainOptions::ToJson() const {
-  return {{"learning_rate", learning_rate}, {"texture_learning_rate", texture_learning_rate}, {"beta1", beta1}, {"beta2", beta2},
-          {"batch_size", batch_size}, {"crop_px", crop_px}, {"mask_loss_weight", mask_loss_weight},
-          {"seed", seed}, {"threads", threads}};
-}
 
 void Batch::Check(bool need_targets) const {
   RELIT_REQUIRE(uv.defined() && uv.dim() == 4, "batch: uv must be [B, H, W, 2]");

@@ -26,6 +26,7 @@
 #include "relight/log_encoding.h"
 #include "relight/networks.h"
 #include "relight/neural_texture.h"
+#include "relight/learn_options.h"
 
 namespace relit {
 class OptionsReader;
@@ -33,59 +34,7 @@ class OptionsReader;
 
 namespace relit::relight {
 
-struct ModelOptions {
-  int texture_resolution_px = 256;  // power of two
-  int channels_per_basis = 6;       // C; the texture has 5 C channels
-  int mip_levels = 0;               // 0 = full chain
-  int ngf = 32;                     // renderer width (DNL: 64)
-  int n_blocks = 6;                 // renderer residual blocks (DNL: 9)
-  int mask_ngf = 16;                // mask network: half the renderer's channels
-  int mask_n_blocks = 3;
-  std::string upsampling = "transposed";  // "transposed" | "resize_conv"
-  std::string norm = "instance";          // "instance" | "none" (both networks)
-  // The renderer's last conv also sees its input (full-resolution skip).
-  // Not in DNL; +5 dB held-out at 300 steps (docs/relight.md, "Learning check").
-  bool input_skip = true;
-  // Texels start uniform in [1 - spread, 1 + spread]: texture x cue starts as
-  // the cue itself, give or take the spread (noise the network must undo).
-  double texture_init_spread = 0.5;
-  // M of the log encoding, the scene's maximum radiance. 0 = not set yet:
-  // whoever builds the model from data must set it (DnlModel requires > 0).
-  double max_radiance = 0.0;
-  std::string device = "cpu";       // "cpu", "cuda" or "auto" (cuda when available)
-  // The light input the model reads (cues.input / cues.bases). Not a key of
-  // `model:`; the stage copies it from `cues:`, checkpoints record it.
-  CueFormat format;
 
-  NeuralTextureOptions TextureOptions() const;
-  GeneratorOptions RendererOptions() const;
-  GeneratorOptions MaskOptions() const;
-
-  void Read(OptionsReader& reader);
-  void Check() const;
-  // With "input"/"bases" (format) only when not the default, so records of
-  // default models are what they were before the format existed.
-  nlohmann::json ToJson() const;
-};
-
-struct TrainOptions {
-  double learning_rate = 2e-4;  // Adam, as in DNL
-  // The neural texture's Adam rate: each texel sees few pixels per step, so
-  // it must move faster than the networks (measured, docs/relight.md).
-  // 0 = learning_rate.
-  double texture_learning_rate = 2e-2;
-  double beta1 = 0.9;
-  double beta2 = 0.999;
-  int batch_size = 1;           // frames per step (the data loader's business)
-  int crop_px = 128;            // random square crops; 0 = whole frames; multiple of 4
-  double mask_loss_weight = 1.0;
-  uint64_t seed = 1;            // model initialisation and crop positions
-  int threads = 2;              // torch intra-op threads
-
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
-};
 
 // One batch of frames; every per-pixel tensor has the same B, H, W.
 struct Batch {

@@ -24,19 +24,7 @@ nn::Conv2d Conv(int in, int out, int kernel, int stride = 1, int padding = 0) {
 
 }  // namespace
 
-void GeneratorOptions::Check() const {
-  RELIT_REQUIRE(input_channels >= 1 && output_channels >= 1, "generator: channel counts must be >= 1");
-  RELIT_REQUIRE(ngf >= 1 && ngf <= 512, "generator ngf must be in [1, 512], got ", ngf);
-  RELIT_REQUIRE(n_blocks >= 0 && n_blocks <= 64, "generator n_blocks must be in [0, 64], got ", n_blocks);
-  RELIT_REQUIRE(upsampling == "transposed" || upsampling == "resize_conv",
-                "generator upsampling must be transposed or resize_conv, got '", upsampling, "'");
-  RELIT_REQUIRE(norm == "instance" || norm == "none", "generator norm must be instance or none, got '", norm, "'");
-}
 
-nlohmann::json GeneratorOptions::ToJson() const {
-  return {{"input_channels", input_channels}, {"output_channels", output_channels}, {"ngf", ngf},
-          {"n_blocks", n_blocks}, {"upsampling", upsampling}, {"norm", norm}, {"input_skip", input_skip}, {"output_tanh", output_tanh}};
-}
 
 ResnetBlockImpl::ResnetBlockImpl(int channels, const std::string& norm) {
   nn::Sequential body;

@@ -25,24 +25,10 @@
 
 #include <nlohmann/json.hpp>
 #include <torch/torch.h>
+#include "relight/learn_options.h"
 
 namespace relit::relight {
 
-struct GeneratorOptions {
-  int input_channels = 30;
-  int output_channels = 3;
-  int ngf = 32;                           // channels after the first conv
-  int n_blocks = 6;                       // residual blocks at 1/4 resolution
-  std::string upsampling = "transposed";  // "transposed" | "resize_conv"
-  std::string norm = "instance";          // "instance" | "none"
-  // The last 7x7 conv also sees the full-resolution input (a U-Net-like skip
-  // over the down/up-sampling), so per-pixel detail need not be relearnt.
-  bool input_skip = false;
-  bool output_tanh = true;
-
-  void Check() const;
-  nlohmann::json ToJson() const;
-};
 
 class ResnetBlockImpl : public torch::nn::Module {
  public:

@@ -10,12 +10,6 @@ namespace {
 
 namespace F = torch::nn::functional;
 
-int Log2Exact(int value) {
-  int log = 0;
-  while ((1 << log) < value) ++log;
-  return log;
-}
-
 void CheckPixelTensor(const torch::Tensor& t, const char* name, int64_t last_dim) {
   RELIT_REQUIRE(t.defined() && t.dim() == 4 && t.size(3) == last_dim, "neural texture: ", name,
                 " must be [B, H, W, ", last_dim, "], got ", t.defined() ? t.sizes() : c10::IntArrayRef{});
@@ -23,36 +17,9 @@ void CheckPixelTensor(const torch::Tensor& t, const char* name, int64_t last_dim
 
 }  // namespace
 
-int NeuralTextureOptions::levels() const {
-  const int full = Log2Exact(resolution_px) + 1;
-  return mip_levels == 0 ? full : std::min(mip_levels, full);
-}
 
-void NeuralTextureOptions::Read(OptionsReader& reader) {
-  reader.ReadRange("resolution_px", &resolution_px, 1, 8192);
-  reader.ReadRange("channels_per_basis", &channels_per_basis, 1, 64);
-  reader.ReadRange("mip_levels", &mip_levels, 0, 14);
-  reader.Read("init_min", &init_min);
-  reader.Read("init_max", &init_max);
-  reader.Finish();
-  Check();
-}
 
-void NeuralTextureOptions::Check() const {
-  RELIT_REQUIRE(resolution_px >= 1 && resolution_px <= 8192 && (resolution_px & (resolution_px - 1)) == 0,
-                "texture resolution_px must be a power of two in [1, 8192], got ", resolution_px);
-  RELIT_REQUIRE(channels_per_basis >= 1 && channels_per_basis <= 64,
-                "channels_per_basis must be in [1, 64], got ", channels_per_basis);
-  RELIT_REQUIRE(basis_count >= 0 && extra_channels >= 0 && channels() >= 1, "texture: no channels");
-  RELIT_REQUIRE(mip_levels >= 0 && mip_levels <= 14, "mip_levels must be in [0, 14], got ", mip_levels);
-  RELIT_REQUIRE(std::isfinite(init_min) && std::isfinite(init_max) && init_min <= init_max,
-                "texture init_min must be <= init_max, got ", init_min, " > ", init_max);
-}
 
-nlohmann::json NeuralTextureOptions::ToJson() const {
-  return {{"resolution_px", resolution_px}, {"channels_per_basis", channels_per_basis},
-          {"mip_levels", mip_levels}, {"init_min", init_min}, {"init_max", init_max}};
-}
 
 torch::Tensor MipLod(const torch::Tensor& derivatives, int64_t width, int64_t height, int levels) {
   CheckPixelTensor(derivatives, "uv derivatives", 4);

@@ -24,6 +24,7 @@
 
 #include <nlohmann/json.hpp>
 #include <torch/torch.h>
+#include "relight/learn_options.h"
 
 namespace relit {
 class OptionsReader;
@@ -32,30 +33,6 @@ class OptionsReader;
 namespace relit::relight {
 
 // Basis materials of the radiance cues: Lambert + GGX alpha 0.02/0.05/0.13/0.34.
-constexpr int kBasisCount = 5;
-
-struct NeuralTextureOptions {
-  int resolution_px = 256;     // level 0 is resolution x resolution; a power of two
-  int channels_per_basis = 6;  // C; the texture has basis_count C + extra_channels channels
-  // Set by the model from its input format (not options of their own): 5
-  // bases by default, 1 for the 1-basis ablation; the sh baseline uses
-  // basis_count 1 (C pass-through channels) + 21 SH-modulated channels.
-  int basis_count = kBasisCount;
-  int extra_channels = 0;
-  int mip_levels = 0;          // 0 = full chain down to 1 x 1
-  // Initial texel values, uniform in [init_min, init_max]. Positive, so that
-  // texture x cue starts as a (scaled) copy of the cue.
-  double init_min = 0.5;
-  double init_max = 1.5;
-
-  int channels() const { return basis_count * channels_per_basis + extra_channels; }
-  // Number of mip levels actually used.
-  int levels() const;
-
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
-};
 
 // Level-of-detail per pixel: [B, 1, H, W] from derivatives [B, H, W, 4], for a
 // level-0 size of width x height texels and `levels` mip levels.

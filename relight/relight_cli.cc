@@ -9,6 +9,7 @@
 #include "core/run_record.h"
 #include "core/atomic_output.h"
 #include "relight/asset.h"
+#include "relight/augment.h"
 #include "relight/checkpoint.h"
 #include "relight/compare.h"
 #include "relight/cue_stage.h"
@@ -23,44 +24,8 @@ namespace relit::relight {
 
 namespace fs = std::filesystem;
 
-void RelightOptions::Read(OptionsReader& reader) {
-  for (auto [key, read] : std::initializer_list<std::pair<const char*, std::function<void(OptionsReader&)>>>{
-           {"cues", [&](OptionsReader& r) { cues.Read(r); }},
-           {"dataset", [&](OptionsReader& r) { dataset.Read(r); }},
-           {"partitions", [&](OptionsReader& r) { partitions.Read(r); }},
-           {"model", [&](OptionsReader& r) { model.Read(r); }},
-           {"train", [&](OptionsReader& r) { train.Read(r); }},
-           {"augment", [&](OptionsReader& r) { augment.Read(r); }},
-           {"render", [&](OptionsReader& r) { render.Read(r); }},
-           {"export", [&](OptionsReader& r) { exports.Read(r); }},
-           {"eval", [&](OptionsReader& r) { eval.Read(r); }}}) {
-    OptionsReader child = reader.Child(key);
-    read(child);
-  }
-  reader.Read("log_level", &log_level);
-  reader.Finish();
-}
 
-void RelightOptions::Check() const {
-  RELIT_REQUIRE(!workspace.empty(), "relight: --workspace is required");
-  RELIT_REQUIRE(fs::is_directory(workspace), "relight: workspace ", workspace, " is not a folder");
-  cues.Check();
-  dataset.Check();
-  partitions.Check();
-  model.Check();
-  train.Check();
-  augment.Check();
-  render.Check();
-  exports.Check();
-  eval.Check();
-}
 
-nlohmann::json RelightOptions::ToJson() const {
-  return {{"workspace", workspace},          {"cues", cues.ToJson()},   {"dataset", dataset.ToJson()},
-          {"partitions", partitions.ToJson()}, {"model", model.ToJson()}, {"train", train.ToJson()},
-          {"augment", augment.ToJson()},          {"render", render.ToJson()},        {"export", exports.ToJson()},
-          {"eval", eval.ToJson()},            {"log_level", log_level}};
-}
 
 namespace {
 
@@ -143,6 +108,10 @@ int RunRelight(int argc, char** argv) {
   render->add_option("--views", views, "JSON file of cameras and lights to render (docs/relight.md)")
       ->check(CLI::ExistingFile);
   render->add_option("--out", out, "output folder for --views");
+  bool force = false;
+  for (CLI::App* sub : {render, eval, export_asset}) {
+    sub->add_flag("--force", force, "replace an --out folder that relit did not write (never one holding an input)");
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -205,20 +174,22 @@ int RunRelight(int argc, char** argv) {
   } else if (render->parsed()) {
     if (!views.empty()) {
       RELIT_REQUIRE(!out.empty(), "render --views needs --out DIR");
-      RunRenderViews(DescribeWorkspace(workspace), views, out, options.render, record);
+      RunRenderViews(DescribeWorkspace(workspace), views, out, options.render, record, "", force);
     } else {
       LogFile log(relight_dir / "logs" / "render.log", level);
       RunRenderStage(workspace, options.render, record);
     }
   } else if (eval->parsed()) {
     LogFile log(relight_dir / "logs" / "eval.log", level);
+    const OutputGuard guard{"relit-relight eval", force, {workspace, truth}};
     RunEval(workspace, truth, out.empty() ? (relight_dir / "eval").string() : out, options.eval, options.render,
-            record);
+            record, out.empty() ? nullptr : &guard);
   }
   if (export_asset->parsed()) {
     LogFile log(relight_dir / "logs" / "export.log", level);
     const std::string asset_dir = out.empty() ? (relight_dir / "export").string() : out;
-    ExportAsset(workspace, asset_dir, record);
+    const OutputGuard guard{"relit-relight export", force, {workspace}};
+    ExportAsset(workspace, asset_dir, record, out.empty() ? nullptr : &guard);
     if (options.exports.enabled) {
       ExportInterop(workspace, (fs::path(asset_dir) / "interop").string(), options.exports, record);
       record.Write((fs::path(asset_dir) / "export.json").string());  // now with what interop/ holds

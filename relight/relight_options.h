@@ -7,13 +7,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include "relight/augment.h"
 #include "relight/eval.h"
 #include "relight/interop.h"
-#include "relight/model.h"
+#include "relight/learn_options.h"
 #include "relight/partitions.h"
 #include "relight/stage_options.h"
-#include "relight/train_stage.h"
 
 namespace relit::relight {
 
@@ -34,6 +32,11 @@ struct RelightOptions {
   void Check() const;
   nlohmann::json ToJson() const;
 };
+
+// Reads a whole `relight:` section into default options and checks it (every
+// key, to the last level), as relit-relight would; for `relit run`'s check
+// of pipeline.yaml. No LibTorch.
+void CheckRelightSection(OptionsReader& reader);
 
 // `relit-relight <cues|plan|train|render> ...`; see docs/relight.md.
 int RunRelight(int argc, char** argv);

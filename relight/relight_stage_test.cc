@@ -350,5 +350,54 @@ TEST(RelightStageErrors, MissingUpstreamOutputsNameTheStageToRun) {
   fs::remove_all(dir);
 }
 
+// A views file that would render nothing useful, silently overwrite an image
+// or light with negative power, and --out paths that would lose files, are
+// refused before anything renders (docs/refusals.md).
+TEST(RelightStageErrors, RenderViewsRefusesBadViewsAndUnsafeOutputs) {
+  const fs::path dir = fs::temp_directory_path() / ("relit_relight_views_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  AssetDescription asset;  // no models: every check below comes before the renderer
+  asset.camera.width = 32;
+  asset.camera.height = 24;
+  asset.camera.fx = asset.camera.fy = 30;
+  asset.mesh = (dir / "proxy.obj").string();
+  auto error_of = [&](const std::string& views, const fs::path& out) {
+    const fs::path file = dir / "views.json";
+    std::ofstream(file) << views;
+    RunRecord record("test");
+    try {
+      RunRenderViews(asset, file.string(), out.string(), RenderStageOptions(), record);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  const std::string pose = R"("cam_from_world": {"rotation_wxyz": [1, 0, 0, 0], "translation_m": [0, 0, 0.5]})";
+  auto view = [&](const std::string& name, const std::string& light) {
+    return R"({"name": ")" + name + "\", " + pose + R"(, "light": )" + light + "}";
+  };
+  const std::string point = R"({"type": "point", "position_m": [0, 0, 1], "intensity": 1})";
+  const fs::path out = dir / "out";
+  EXPECT_NE(error_of(R"({"views": []})", out).find("empty"), std::string::npos);
+  EXPECT_NE(error_of(R"({"views": [)" + view("a", point) + ", " + view("a", point) + "]}", out).find("also the name"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"views": [)" + view("a", R"({"type": "point", "position_m": [0, 0, 1], "intensity": -2})") +
+                         "]}", out).find("intensity: must be finite and >= 0"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"views": [)" +
+                         view("a", R"({"type": "directional", "direction_to_light": [0, 0, 0]})") + "]}", out)
+                .find("direction_to_light: is zero"),
+            std::string::npos);
+  EXPECT_FALSE(fs::exists(out));
+  // A file as --out, and a folder holding the views file.
+  std::ofstream(dir / "notes.txt") << "mine";
+  const std::string good = R"({"views": [)" + view("a", point) + "]}";
+  EXPECT_NE(error_of(good, dir / "notes.txt").find("never replaces a file"), std::string::npos);
+  EXPECT_NE(error_of(good, dir).find("holds the input"), std::string::npos);
+  std::ifstream in(dir / "notes.txt");
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()), "mine");
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace relit::relight

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
@@ -141,28 +142,61 @@ void EncodeMp4(const fs::path& frames_dir, const fs::path& mp4, double fps, int 
 
 }  // namespace
 
+namespace {
+
+// A light's colour or strength: finite and not negative (a negative light
+// would subtract radiance).
+Eigen::Vector3d PowerFromJson(const json& j, const std::string& key, const std::string& where) {
+  const Eigen::Vector3d c = ColorFromJson(j, key, where);
+  RELIT_REQUIRE(c.allFinite() && (c.array() >= 0).all(), where, ".", key, ": must be finite and >= 0, got [",
+                c.x(), ", ", c.y(), ", ", c.z(), "]; give the light's strength as a positive number or RGB triple");
+  return c;
+}
+
+Eigen::Vector3d FiniteVector(const json& j, const std::string& key, const std::string& where) {
+  const Eigen::Vector3d v = Vector3FromJson(JsonField(j, key, where), where + "." + key);
+  RELIT_REQUIRE(v.allFinite(), where, ".", key, ": must be three finite numbers");
+  return v;
+}
+
+}  // namespace
+
 CueLight LightFromJson(const json& j, const std::string& base_dir, const std::string& where) {
-  const std::string type = JsonField(j, "type", where).get<std::string>();
+  RELIT_REQUIRE(j.is_object(), where, ": expected an object with a \"type\" (point, directional, environment, area)");
+  const json& type_json = JsonField(j, "type", where);
+  RELIT_REQUIRE(type_json.is_string(), where, ".type: expected a string (point, directional, environment, area)");
+  const std::string type = type_json.get<std::string>();
   CueLight light;
   if (type == "point") {
     light.kind = CueLight::Kind::kPoint;
-    light.position_m = Vector3FromJson(JsonField(j, "position_m", where), where + ".position_m");
-    light.color = ColorFromJson(j, "intensity", where);
+    light.position_m = FiniteVector(j, "position_m", where);
+    light.color = PowerFromJson(j, "intensity", where);
   } else if (type == "directional") {
     light.kind = CueLight::Kind::kDirectional;
-    light.direction_to_light =
-        Vector3FromJson(JsonField(j, "direction_to_light", where), where + ".direction_to_light").normalized();
-    light.color = ColorFromJson(j, "irradiance", where);
+    const Eigen::Vector3d direction = FiniteVector(j, "direction_to_light", where);
+    RELIT_REQUIRE(direction.norm() > 1e-9, where, ".direction_to_light: is zero; give the direction towards the "
+                  "light, e.g. [0, 0, 1] for a light straight above");
+    light.direction_to_light = direction.normalized();
+    light.color = PowerFromJson(j, "irradiance", where);
   } else if (type == "environment") {
     light.kind = CueLight::Kind::kEnvironment;
-    light.environment = LoadEnvironment(j.value("map", std::string()), j.value("scale", 1.0),
+    const double scale = j.contains("scale") && j["scale"].is_number() ? j["scale"].get<double>() : 1.0;
+    RELIT_REQUIRE(std::isfinite(scale) && scale >= 0 && (!j.contains("scale") || j["scale"].is_number()), where,
+                  ".scale: must be a finite number >= 0");
+    RELIT_REQUIRE(!j.contains("map") || j["map"].is_string(), where, ".map: expected a file name or procedural:sky");
+    RELIT_REQUIRE(!j.contains("rotation_deg") || j["rotation_deg"].is_number(), where,
+                  ".rotation_deg: expected a number");
+    light.environment = LoadEnvironment(j.value("map", std::string()), scale,
                                         j.value("rotation_deg", 0.0) * M_PI / 180, base_dir);
   } else if (type == "area") {
     light.kind = CueLight::Kind::kQuad;
-    light.quad.corner = Vector3FromJson(JsonField(j, "corner_m", where), where).cast<float>();
-    light.quad.edge_u = Vector3FromJson(JsonField(j, "edge_u_m", where), where).cast<float>();
-    light.quad.edge_v = Vector3FromJson(JsonField(j, "edge_v_m", where), where).cast<float>();
-    light.quad.radiance = ColorFromJson(j, "radiance", where).cast<float>().array();
+    light.quad.corner = FiniteVector(j, "corner_m", where).cast<float>();
+    const Eigen::Vector3d u = FiniteVector(j, "edge_u_m", where), v = FiniteVector(j, "edge_v_m", where);
+    RELIT_REQUIRE(u.cross(v).norm() > 1e-12, where, ": edge_u_m and edge_v_m span no area; give two "
+                  "non-parallel, non-zero edges");
+    light.quad.edge_u = u.cast<float>();
+    light.quad.edge_v = v.cast<float>();
+    light.quad.radiance = PowerFromJson(j, "radiance", where).cast<float>().array();
   } else {
     Fail(where, ": light type must be point, directional, environment or area, got '", type, "'");
   }
@@ -239,35 +273,58 @@ void RunRenderStage(const std::string& workspace, const RenderStageOptions& opti
 }
 
 void RunRenderViews(const AssetDescription& asset, const std::string& views_json, const std::string& out_dir,
-                    const RenderStageOptions& options, RunRecord& record, const std::string& device) {
+                    const RenderStageOptions& options, RunRecord& record, const std::string& device, bool force) {
   std::ifstream in(views_json);
   RELIT_REQUIRE(in, "cannot read ", views_json);
   const json views = json::parse(in, nullptr, false);
-  RELIT_REQUIRE(!views.is_discarded() && views.contains("views") && views["views"].is_array(), views_json,
-                ": expected a JSON object with a \"views\" array (docs/relight.md)");
-  RelitRenderer renderer(asset, device);
+  RELIT_REQUIRE(!views.is_discarded() && views.is_object() && views.contains("views") && views["views"].is_array(),
+                views_json, ": expected a JSON object with a \"views\" array (docs/relight.md)");
+  RELIT_REQUIRE(!views["views"].empty(), views_json,
+                ": the \"views\" array is empty; add at least one view (docs/relight.md)");
   const std::string base = fs::path(views_json).parent_path().string();
-  fs::create_directories(out_dir);
-  CueRenderSettings settings;
-  settings.samples_per_pixel = options.samples_per_pixel;
-  Progress progress("render views", static_cast<int64_t>(views["views"].size()));
-  auto timer = record.Time("render_views");
-  int index = 0;
+  // Every view is read and checked before anything renders or is written.
+  struct View {
+    std::string name;
+    Camera camera;
+    CueLight light;
+  };
+  std::vector<View> parsed;
+  std::map<std::string, std::string> names;  // name -> where it was first given
   for (const json& view : views["views"]) {
-    const std::string where = views_json + ": views[" + std::to_string(index) + "]";
-    const std::string name = JsonField(view, "name", where).get<std::string>();
-    RELIT_REQUIRE(name.find('/') == std::string::npos && !name.empty(), where, ": name must be a plain file name");
+    const std::string where = views_json + ": views[" + std::to_string(parsed.size()) + "]";
+    RELIT_REQUIRE(view.is_object(), where, ": expected an object with name, cam_from_world and light");
+    const json& name_json = JsonField(view, "name", where);
+    RELIT_REQUIRE(name_json.is_string(), where, ".name: expected a string");
+    const std::string name = name_json.get<std::string>();
+    RELIT_REQUIRE(name.find('/') == std::string::npos && !name.empty() && name != "." && name != ".." &&
+                      name != "render" && name[0] != '.',
+                  where, ".name: '", name, "' must be a plain file name (no '/', not hidden, not 'render')");
+    const auto [it, inserted] = names.emplace(name, where);
+    RELIT_REQUIRE(inserted, where, ".name: '", name, "' is also the name of ", it->second,
+                  "; give every view its own name (each becomes NAME.exr and NAME.png)");
     const Intrinsics intrinsics =
         view.contains("intrinsics") ? IntrinsicsFromJson(view["intrinsics"], where + ".intrinsics") : asset.camera;
-    const Camera camera(intrinsics, Rigid3FromJson(JsonField(view, "cam_from_world", where), where));
-    const CueLight light = LightFromJson(JsonField(view, "light", where), base, where + ".light");
+    parsed.push_back({name, Camera(intrinsics, Rigid3FromJson(JsonField(view, "cam_from_world", where), where)),
+                      LightFromJson(JsonField(view, "light", where), base, where + ".light")});
+  }
+  OutputGuard guard{"relit-render", force, {views_json, asset.mesh}};
+  for (const std::string& model : asset.partition_models) guard.inputs.push_back(model);
+  AtomicDir out(out_dir, guard);
+  RelitRenderer renderer(asset, device);
+  CueRenderSettings settings;
+  settings.samples_per_pixel = options.samples_per_pixel;
+  Progress progress("render views", static_cast<int64_t>(parsed.size()));
+  auto timer = record.Time("render_views");
+  int index = 0;
+  for (const View& view : parsed) {
     settings.seed = 9000 + index++;
-    WriteRgba((fs::path(out_dir) / name).string(), renderer.Render(camera, light, settings));
+    WriteRgba((out.path() / view.name).string(), renderer.Render(view.camera, view.light, settings));
     progress.Advance();
   }
   progress.Finish();
   record.Set("views", index);
-  record.Write((fs::path(out_dir) / "render.json").string());
+  record.Write((out.path() / "render.json").string());
+  out.Commit();
 }
 
 int RunRender(int argc, char** argv) {
@@ -281,6 +338,8 @@ int RunRender(int argc, char** argv) {
   app.add_option("--samples-per-pixel", samples, "cue paths per pixel (default 16)");
   app.add_option("--device", device, "cpu | cuda | auto (default cpu)");
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
+  bool force = false;
+  app.add_flag("--force", force, "replace an --out folder that relit-render did not write");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -294,7 +353,7 @@ int RunRender(int argc, char** argv) {
   RunRecord record("relit-render");
   record.SetCommandLine(argc, argv);
   record.SetOptions({{"asset", asset_dir}, {"views", views}, {"samples_per_pixel", samples}, {"device", device}});
-  RunRenderViews(asset, views, out, options, record, device);
+  RunRenderViews(asset, views, out, options, record, device, force);
   return 0;
 }
 

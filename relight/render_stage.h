@@ -71,9 +71,13 @@ CueLight LightFromJson(const nlohmann::json& j, const std::string& base_dir, con
 void WriteRgba(const std::string& path_without_extension, const Image& rgba);
 
 void RunRenderStage(const std::string& workspace, const RenderStageOptions& options, RunRecord& record);
-// Renders the views of `views_json` with `asset` into `out_dir`.
+// Renders the views of `views_json` with `asset` into `out_dir`. Every view
+// is checked first (unique plain names, valid cameras and lights, at least
+// one view); `out_dir` follows the output-folder rule (OutputGuard, marker
+// "relit-render"; `force` = --force).
 void RunRenderViews(const AssetDescription& asset, const std::string& views_json, const std::string& out_dir,
-                    const RenderStageOptions& options, RunRecord& record, const std::string& device = "");
+                    const RenderStageOptions& options, RunRecord& record, const std::string& device = "",
+                    bool force = false);
 
 // `relit-render --asset DIR --views FILE --out DIR`: renders from an exported
 // asset alone (no workspace).

@@ -26,33 +26,8 @@ namespace relit::relight {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-void TrainStageOptions::Read(OptionsReader& reader) {
-  reader.ReadRange("steps", &steps, 1, 100000000);
-  reader.ReadRange("checkpoint_every", &checkpoint_every, 1, 100000000);
-  reader.ReadRange("validate_every", &validate_every, 0, 100000000);
-  reader.ReadRange("log_every", &log_every, 1, 100000000);
-  reader.ReadRange("max_validation_frames", &max_validation_frames, 0, 1000);
-  optimizer.Read(reader);  // the optimiser's keys sit at the same level; it calls Finish()
-  Check();
-}
 
-void TrainStageOptions::Check() const {
-  RELIT_REQUIRE(steps >= 1, "train.steps must be >= 1");
-  RELIT_REQUIRE(checkpoint_every >= 1 && log_every >= 1, "train.checkpoint_every and train.log_every must be >= 1");
-  RELIT_REQUIRE(validate_every >= 0 && max_validation_frames >= 0,
-                "train.validate_every and train.max_validation_frames must be >= 0");
-  optimizer.Check();
-}
 
-json TrainStageOptions::ToJson() const {
-  json j = optimizer.ToJson();
-  j["steps"] = steps;
-  j["checkpoint_every"] = checkpoint_every;
-  j["validate_every"] = validate_every;
-  j["log_every"] = log_every;
-  j["max_validation_frames"] = max_validation_frames;
-  return j;
-}
 
 std::string PartitionDirName(int partition) {
   char name[16];

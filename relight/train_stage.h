@@ -20,6 +20,7 @@
 
 #include "relight/model.h"
 #include "relight/partitions.h"
+#include "relight/learn_options.h"
 
 namespace relit {
 class OptionsReader;
@@ -28,18 +29,6 @@ class RunRecord;
 
 namespace relit::relight {
 
-struct TrainStageOptions {
-  int steps = 3000;              // optimisation steps per partition
-  int checkpoint_every = 250;
-  int validate_every = 500;      // 0 = only at the end
-  int log_every = 10;
-  int max_validation_frames = 4; // validation renders whole frames: keep it small
-  TrainOptions optimizer;        // Adam, crops, seed, threads (same keys, same level)
-
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
-};
 
 struct TrainStageResult {
   bool skipped = false;          // the partition has no training frame

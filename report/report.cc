@@ -38,7 +38,7 @@ ReportSummary RunReportImpl(const ReportOptions& options) {
   const fs::path workspace(options.workspace);
   RELIT_REQUIRE(fs::is_directory(workspace), "relit-report: workspace ", workspace.string(),
                 " is not a folder (give the folder that holds capture/, calib/, ...)");
-  AtomicDir out(workspace / "report");
+  AtomicDir out(workspace / "report", OutputGuard{"relit-report", options.force, {}}, "--workspace");
   LogFileScope log_scope{level};
   InitLogging((out.path() / "report.log").string(), level);
   RunRecord record("relit-report");
@@ -117,6 +117,8 @@ int RunReport(int argc, char** argv) {
   app.add_option("--config", config, "YAML file with report options (unknown keys are errors)")
       ->check(CLI::ExistingFile);
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
+  bool force = false;
+  app.add_flag("--force", force, "replace a W/report folder that relit-report did not write");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -129,6 +131,7 @@ int RunReport(int argc, char** argv) {
   }
   if (!workspace.empty()) options.workspace = workspace;
   if (!log_level.empty()) options.log_level = log_level;
+  options.force = force;
   SetVerbosity(ParseLogLevel(options.log_level));
   options.Check();
   RunReportImpl(options);

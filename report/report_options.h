@@ -28,6 +28,9 @@ struct MeshPreviewOptions {
 struct ReportOptions {
   std::string workspace;           // W: reads the stages' folders, writes W/report
   std::string log_level = "info";
+  // --force: replace an output folder that relit did not write (never one
+  // holding an input, never a file). Not an option of the config file.
+  bool force = false;
   int thumbnail_width_px = 240;    // frames, trimaps, mattes, turntable strips
   int sample_frames = 4;           // frames shown with their trimap and matte
   int strip_frames = 8;            // turntable frames shown per strip

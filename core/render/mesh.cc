@@ -1,9 +1,14 @@
 #include "core/render/mesh.h"
 
 #include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
+#include <vector>
 #include <tuple>
 
 #include <OpenMesh/Core/IO/MeshIO.hh>
@@ -24,7 +29,28 @@ std::string Extension(const std::string& path) {
   return ext;
 }
 
+// tinyobjloader reads a coordinate it cannot parse ("nan", "inf", "1e999",
+// "x") as 0 without a word; relit reads the "v" lines itself first.
+void RequireFiniteObjVertices(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    if (line.size() < 2 || line[0] != 'v' || (line[1] != ' ' && line[1] != '\t')) continue;
+    const char* p = line.c_str() + 2;
+    for (int k = 0; k < 3; ++k) {
+      char* end = nullptr;
+      errno = 0;
+      const double value = std::strtod(p, &end);
+      RELIT_REQUIRE(end != p && std::isfinite(value) && errno != ERANGE, "OBJ mesh ", path, ":", number,
+                    ": vertex coordinate ", k + 1, " is not a finite number ('", line.substr(0, 60),
+                    "'); repair or re-export the mesh");
+      p = end;
+    }
+  }
+}
+
 TriangleMesh LoadObj(const std::string& path) {
+  RequireFiniteObjVertices(path);
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
   config.vertex_color = false;
@@ -38,6 +64,24 @@ TriangleMesh LoadObj(const std::string& path) {
     for (const auto& index : shape.mesh.indices) {
       any_normals |= index.normal_index >= 0;
       any_uvs |= index.texcoord_index >= 0;
+    }
+  }
+  // Every index must name an element of the file (tinyobjloader keeps
+  // indices past the end, which would read beyond its arrays).
+  const long vertex_count = static_cast<long>(attrib.vertices.size() / 3);
+  const long uv_count = static_cast<long>(attrib.texcoords.size() / 2);
+  const long normal_count = static_cast<long>(attrib.normals.size() / 3);
+  for (const auto& shape : reader.GetShapes()) {
+    for (size_t i = 0; i < shape.mesh.indices.size(); ++i) {
+      const tinyobj::index_t& id = shape.mesh.indices[i];
+      const size_t face = i / 3 + 1;
+      RELIT_REQUIRE(id.vertex_index >= 0 && id.vertex_index < vertex_count, "OBJ mesh ", path, ": face ", face,
+                    " of '", shape.name, "' refers to vertex ", id.vertex_index + 1, " but the file has ",
+                    vertex_count, " vertices; repair or re-export the mesh");
+      RELIT_REQUIRE(id.texcoord_index < uv_count, "OBJ mesh ", path, ": face ", face, " refers to texture "
+                    "coordinate ", id.texcoord_index + 1, " but the file has ", uv_count, "; re-export the mesh");
+      RELIT_REQUIRE(id.normal_index < normal_count, "OBJ mesh ", path, ": face ", face, " refers to normal ",
+                    id.normal_index + 1, " but the file has ", normal_count, "; re-export the mesh");
     }
   }
   // One output vertex per distinct (position, uv, normal) triple: splits seams.
@@ -77,7 +121,96 @@ TriangleMesh LoadObj(const std::string& path) {
   return mesh;
 }
 
+// A NaN or infinite coordinate would move every computation it touches
+// (bounds, cleanup, atlas) without an error.
+void RequireFinite(const TriangleMesh& mesh, const std::string& path) {
+  for (size_t i = 0; i < mesh.positions.size(); ++i) {
+    RELIT_REQUIRE(mesh.positions[i].allFinite(), "mesh ", path, ": vertex ", i + 1, " has a non-finite coordinate (",
+                  mesh.positions[i].x(), ", ", mesh.positions[i].y(), ", ", mesh.positions[i].z(),
+                  "); repair or re-export the mesh");
+  }
+  for (size_t i = 0; i < mesh.normals.size(); ++i) {
+    RELIT_REQUIRE(mesh.normals[i].allFinite(), "mesh ", path, ": normal ", i + 1,
+                  " is not finite; repair or re-export the mesh");
+  }
+  for (size_t i = 0; i < mesh.uvs.size(); ++i) {
+    RELIT_REQUIRE(mesh.uvs[i].allFinite(), "mesh ", path, ": texture coordinate ", i + 1,
+                  " is not finite; repair or re-export the mesh");
+  }
+}
+
+// OpenMesh's PLY reader loops forever on some malformed headers (e.g.
+// "format binary_little_endian NaN") and allocates what the header claims:
+// relit reads the header itself first and refuses anything unusual.
+void RequireSanePlyHeader(const std::string& path) {
+  std::error_code ec;
+  const uintmax_t file_size = std::filesystem::file_size(path, ec);
+  std::ifstream in(path, std::ios::binary);
+  auto fail = [&](int line, const std::string& what) {
+    Fail("PLY mesh ", path, ":", line, ": ", what, "; re-export the mesh (PLY 1.0, ascii or binary)");
+  };
+  std::string line;
+  RELIT_REQUIRE(std::getline(in, line) && (line == "ply" || line == "ply\r"), "PLY mesh ", path,
+                ": does not start with 'ply'; is it a PLY file?");
+  static const std::vector<std::string> kTypes = {"char",   "uchar",  "short",   "ushort",  "int",    "uint",
+                                                  "float",  "double", "int8",    "uint8",   "int16",  "uint16",
+                                                  "int32",  "uint32", "float32", "float64"};
+  auto is_type = [&](const std::string& t) { return std::find(kTypes.begin(), kTypes.end(), t) != kTypes.end(); };
+  bool format = false, in_element = false, ascii = false;
+  for (int number = 2; number < 1000; ++number) {
+    if (!std::getline(in, line)) fail(number, "the header has no end_header line");
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::istringstream words(line);
+    std::string keyword;
+    words >> keyword;
+    if (keyword == "end_header") {
+      if (!format) fail(number, "the header has no format line");
+      if (!ascii) return;
+      // OpenMesh's ascii reader loops (and grows without bound) on a value
+      // it cannot parse: every value must be a finite number.
+      for (int body = number + 1; std::getline(in, line); ++body) {
+        std::istringstream values(line);
+        for (std::string token; values >> token;) {
+          char* end = nullptr;
+          errno = 0;
+          const double value = std::strtod(token.c_str(), &end);
+          if (end != token.c_str() + token.size() || !std::isfinite(value) || errno == ERANGE) {
+            fail(body, "'" + token.substr(0, 30) + "' is not a finite number");
+          }
+        }
+      }
+      return;
+    }
+    if (keyword == "comment" || keyword == "obj_info") continue;
+    std::vector<std::string> rest;
+    for (std::string w; words >> w;) rest.push_back(w);
+    if (keyword == "format") {
+      if (format || rest.size() != 2 || rest[1] != "1.0" ||
+          (rest[0] != "ascii" && rest[0] != "binary_little_endian" && rest[0] != "binary_big_endian")) {
+        fail(number, "unsupported format line '" + line.substr(0, 60) + "'");
+      }
+      format = true;
+      ascii = rest[0] == "ascii";
+    } else if (keyword == "element") {
+      if (rest.size() != 2 || rest[1].empty() || rest[1].size() > 12 ||
+          rest[1].find_first_not_of("0123456789") != std::string::npos ||
+          std::stoull(rest[1]) > static_cast<unsigned long long>(file_size)) {
+        fail(number, "bad element line '" + line.substr(0, 60) + "' (a count larger than the file?)");
+      }
+      in_element = true;
+    } else if (keyword == "property") {
+      const bool ok = in_element && ((rest.size() == 2 && is_type(rest[0])) ||
+                                     (rest.size() == 4 && rest[0] == "list" && is_type(rest[1]) && is_type(rest[2])));
+      if (!ok) fail(number, "bad property line '" + line.substr(0, 60) + "'");
+    } else {
+      fail(number, "unknown header line '" + line.substr(0, 60) + "'");
+    }
+  }
+  fail(1000, "the header is longer than 1000 lines");
+}
+
 TriangleMesh LoadPly(const std::string& path) {
+  RequireSanePlyHeader(path);
   OMesh om;
   om.request_vertex_normals();
   om.request_vertex_texcoords2D();
@@ -218,6 +351,7 @@ TriangleMesh LoadMesh(const std::string& path) {
     Fail("unsupported mesh format '", ext, "' for ", path, " (use .obj or .ply)");
   }
   mesh.Check(path);
+  RequireFinite(mesh, path);
   if (!mesh.has_normals()) mesh.ComputeVertexNormals();
   return mesh;
 }

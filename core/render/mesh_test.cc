@@ -62,6 +62,45 @@ TEST(Mesh, BadInputIsClearError) {
   EXPECT_THROW(LoadMesh(empty), std::runtime_error);
 }
 
+// A proxy mesh file with a coordinate that is not a number or an index past
+// the end is refused with the file and the line or face, not read as 0 or
+// past the arrays (docs/refusals.md).
+TEST(Mesh, BadCoordinatesAndIndicesInTheFileAreRefused) {
+  auto message = [](const std::string& name, const std::string& text) {
+    const std::string path = TempPath(name);
+    std::ofstream(path) << text;
+    try {
+      LoadMesh(path);
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string tetra = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n";
+  EXPECT_EQ(message("ok.obj", tetra), "no error");
+  for (const char* bad : {"nan", "inf", "-inf", "1e999", "x"}) {
+    std::string text = tetra;
+    text.replace(text.find("v 1 0 0"), 7, std::string("v 1 ") + bad + " 0");
+    const std::string e = message("nan.obj", text);
+    EXPECT_NE(e.find("nan.obj:2: vertex coordinate 2 is not a finite number"), std::string::npos) << bad << ": " << e;
+  }
+  const std::string e = message("index.obj", tetra + "f 1 2 9\n");
+  EXPECT_NE(e.find("index.obj"), std::string::npos) << e;
+  EXPECT_NE(e.find("9"), std::string::npos) << e;
+  EXPECT_NE(message("nan.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                               "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                               "end_header\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n")
+                .find("nan.ply:11: 'nan' is not a finite number"),
+            std::string::npos);  // OpenMesh would loop on it
+  // A header OpenMesh would loop on, and counts larger than the file.
+  EXPECT_NE(message("hang.ply", "ply\nformat binary_little_endian NaN\nelement vertex 3\nend_header\n")
+                .find("unsupported format line"),
+            std::string::npos);
+  EXPECT_NE(message("huge.ply", "ply\nformat ascii 1.0\nelement vertex 99999999999\nproperty float x\nend_header\n")
+                .find("bad element line"),
+            std::string::npos);
+}
+
 // Check names the mesh, the element and what is wrong with it.
 TEST(Mesh, CheckNamesTheBadVertexOrTriangle) {
   auto message = [](const TriangleMesh& mesh) {
