@@ -36,7 +36,7 @@ std::string ReadTail(const std::string& path, size_t max_chars = 600) {
 std::string RunCapture(const std::string& command, const std::string& what) {
   const CommandResult result = RunCommand(command);
   RELIT_REQUIRE(result.ok(), what, ": ", command.substr(0, command.find(' ')), " ", ExitDescription(result.status),
-                ": ", result.err.size() > 600 ? result.err.substr(result.err.size() - 600) : result.err);
+                ": ", result.ErrTail(600));
   return result.out;
 }
 
