@@ -26,7 +26,7 @@ struct SyncOptions {
   // correct_drift phone L times map to phone V's clock by the fitted line
   // t_view = a + (1 + b) * t_light instead of t_light + offset_s.
   bool correct_drift = false;
-  double drift_window_s = 5.0;       // length of each window
+  double drift_window_s = 3.0;       // length of each window (shorter: less smear from the drift)
   double drift_warn_ms_per_min = 1.0;
 
   void Read(OptionsReader& reader);
