@@ -189,6 +189,9 @@ SyncResult Synchronise(const VideoInfo& view, const VideoInfo& light, const Sync
     result.method = "manual";
     result.offset_s = o.offset_s;
     spdlog::info("sync: manual offset {:+.6f} s (t_view = t_light + offset)", o.offset_s);
+    if (o.correct_drift) {
+      spdlog::warn("sync: sync.correct_drift needs audio sync; not applied with a manual offset");
+    }
     return result;
   }
   for (const VideoInfo* info : {&view, &light}) {

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 
 #include <gtest/gtest.h>
 
@@ -164,6 +166,10 @@ TEST_F(CaptureSyncTest, DriftIsEstimatedAndCorrected) {
   const nlohmann::json run = ReadJsonFile(o.out + "/run.json", RunRecord::kKind, RunRecord::kVersion);
   EXPECT_NEAR(run["drift_ms_per_min"].get<double>(), truth_rate * 60e3, 0.5);
   EXPECT_TRUE(run["drift_corrected"].get<bool>());
+  // 6 ms/min is above sync.drift_warn_ms_per_min: a warning in the log.
+  std::ifstream log(o.out + "/capture.log");
+  const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("clock drift -6."), std::string::npos) << text;
 }
 
 // Issue 25's case: phone V = room [2.0, 22.0) at 48 kHz / 30 fps, phone L =
