@@ -89,4 +89,76 @@ LagEstimate GccPhatLag(const std::vector<float>& a, const std::vector<float>& b,
   return estimate;
 }
 
+namespace {
+
+// Samples [first, first + count) of a track, clamped to the track.
+std::vector<float> Slice(const TimedSamples& track, int64_t first, int64_t count, double* start_s) {
+  const int64_t size = static_cast<int64_t>(track.samples->size());
+  first = std::clamp<int64_t>(first, 0, size);
+  const int64_t last = std::clamp<int64_t>(first + count, first, size);
+  *start_s = track.start_s + static_cast<double>(first) / track.rate_hz;
+  return std::vector<float>(track.samples->begin() + first, track.samples->begin() + last);
+}
+
+void FitLine(DriftEstimate* d) {
+  double st = 0, so = 0, stt = 0, sto = 0;
+  const double n = static_cast<double>(d->windows.size());
+  for (const DriftWindow& w : d->windows) {
+    st += w.light_time_s;
+    so += w.offset_s;
+    stt += w.light_time_s * w.light_time_s;
+    sto += w.light_time_s * w.offset_s;
+  }
+  const double denominator = n * stt - st * st;
+  d->rate = denominator > 1e-12 ? (n * sto - st * so) / denominator : 0.0;
+  // offset(t_light) = intercept + rate * t_light.
+  d->intercept_s = (so - d->rate * st) / n;
+  d->offset_at_start_s = d->intercept_s + d->rate * d->overlap_start_s;
+  d->offset_at_end_s = d->intercept_s + d->rate * d->overlap_end_s;
+}
+
+}  // namespace
+
+DriftEstimate EstimateDrift(const TimedSamples& view, const TimedSamples& light, double offset_s,
+                            double window_s, double max_lag_s, double min_confidence) {
+  RELIT_CHECK(view.rate_hz == light.rate_hz && view.rate_hz > 0 && window_s > 0);
+  const int rate = light.rate_hz;
+  DriftEstimate d;
+  d.overlap_start_s = std::max(light.start_s, view.start_s - offset_s);
+  d.overlap_end_s = std::min(light.end_s(), view.end_s() - offset_s);
+  const double span_s = d.overlap_end_s - d.overlap_start_s;
+  if (span_s < 2.0) {
+    d.reason = "the audio tracks overlap for less than 2 s";
+    return d;
+  }
+  d.window_s = std::min(window_s, span_s / 2);
+  const int count = std::clamp(static_cast<int>(span_s / d.window_s), 2, 8);
+  const int64_t length = std::llround(d.window_s * rate);
+  for (int i = 0; i < count; ++i) {
+    const double centre_s =
+        d.overlap_start_s + d.window_s / 2 + i * (span_s - d.window_s) / (count - 1);
+    const double begin_s = centre_s - d.window_s / 2;
+    double light_start_s = 0, view_start_s = 0;
+    const std::vector<float> b =
+        Slice(light, std::llround((begin_s - light.start_s) * rate), length, &light_start_s);
+    const std::vector<float> a = Slice(
+        view, std::llround((begin_s + offset_s - view.start_s) * rate), length, &view_start_s);
+    LagEstimate lag;
+    try {
+      lag = GccPhatLag(a, b, rate, std::min(max_lag_s, d.window_s / 2), 0.005);
+    } catch (const Error&) {
+      continue;  // silent window
+    }
+    if (lag.confidence < min_confidence) continue;
+    d.windows.push_back({centre_s, (view_start_s - light_start_s) + lag.lag_s, lag.confidence});
+  }
+  if (d.windows.size() < 2) {
+    d.reason = "fewer than two windows with a clear match (quiet recording?)";
+    return d;
+  }
+  FitLine(&d);
+  d.valid = true;
+  return d;
+}
+
 }  // namespace relit::capture

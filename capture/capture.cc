@@ -216,7 +216,7 @@ CaptureSummary RunCaptureImpl(const CaptureOptions& options) {
   // Phone L frames on the common clock (phone V's).
   std::vector<double> light_times;
   for (Candidate& c : light.frames) {
-    c.time_s = c.source_time_s + sync.offset_s;
+    c.time_s = sync.ToViewTime(c.source_time_s);
     light_times.push_back(c.time_s);
   }
   RELIT_REQUIRE(std::is_sorted(light_times.begin(), light_times.end()), "the ", kLightRole, " ",
@@ -272,7 +272,8 @@ CaptureSummary RunCaptureImpl(const CaptureOptions& options) {
   capture["tool"] = "relit-capture";
   capture["version"] = RelitVersion();
   capture["clock"] = {
-      {"common", "phone V's clock: t_view = t_light + sync.offset_s"},
+      {"common", "phone V's clock: t_view = t_light + sync.offset_s (with sync.drift.corrected: "
+                 "t_view = sync.drift.intercept_s + (1 + sync.drift.rate) * t_light)"},
       {"timestamps", "container presentation times in seconds (per frame, never index x fps)"}};
   capture["inputs"] = {{"view", InputJson(view)}, {"light", InputJson(light)}, {"geometry", nullptr}};
   capture["sync"] = sync.ToJson(options.sync);
@@ -316,6 +317,9 @@ CaptureSummary RunCaptureImpl(const CaptureOptions& options) {
   capture["timings_s"] = record.ToJson()["timings_s"];
   WriteJsonFile((root / "capture.json").string(), kCaptureKind, kCaptureVersion, capture);
   record.Set("offset_s", sync.offset_s);
+  record.Set("drift_ms_per_min", sync.drift.valid ? nlohmann::json(sync.drift.ms_per_min())
+                                                  : nlohmann::json(nullptr));
+  record.Set("drift_corrected", sync.drift_corrected);
   record.Set("view_frames_kept", view_sources.size());
   record.Set("light_frames_kept", light_sources.size());
   record.Write((root / "run.json").string());
@@ -344,7 +348,7 @@ int RunCapture(int argc, char** argv) {
   std::string config, view, light, geometry, out, transfer, log_level;
   double offset_s = 0, max_offset_s = 0, min_confidence = 0;
   int target_frames = 0, max_long_side_px = 0;
-  bool allow_partial = false;
+  bool allow_partial = false, correct_drift = false;
   app.add_option("--view", view, "phone V video (filmed without flash)");
   app.add_option("--light", light, "phone L video (filmed with the flash on)");
   app.add_option("--geometry", geometry, "optional geometry-pass video or folder of photos");
@@ -361,6 +365,8 @@ int RunCapture(int argc, char** argv) {
   auto* frames = app.add_option("--target-frames", target_frames, "phone V frames to keep at most");
   auto* long_side = app.add_option("--max-long-side-px", max_long_side_px,
                                    "downscale frames to this long side (0 = keep)");
+  app.add_flag("--correct-drift", correct_drift,
+               "map phone L times through the fitted clock drift line (sync.correct_drift)");
   app.add_flag("--allow-partial", allow_partial,
                "keep the part of a damaged video before its first decode error");
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
@@ -395,6 +401,7 @@ int RunCapture(int argc, char** argv) {
   if (long_side->count() > 0) options.max_long_side_px = max_long_side_px;
   if (allow_partial) options.allow_partial = true;
   options.force = force;
+  if (correct_drift) options.sync.correct_drift = true;
   if (!log_level.empty()) options.log_level = log_level;
   SetVerbosity(ParseLogLevel(options.log_level));
   options.Check();

@@ -17,6 +17,9 @@ void SyncOptions::Read(OptionsReader& r) {
   r.ReadRange("max_offset_s", &max_offset_s, 0.01, 600.0);
   r.ReadRange("min_confidence", &min_confidence, 1.0, 1000.0);
   r.ReadRange("peak_exclusion_s", &peak_exclusion_s, 0.0, 1.0);
+  r.Read("correct_drift", &correct_drift);
+  r.ReadRange("drift_window_s", &drift_window_s, 0.5, 600.0);
+  r.ReadRange("drift_warn_ms_per_min", &drift_warn_ms_per_min, 0.0, 1000.0);
   r.Finish();
 }
 
@@ -33,6 +36,10 @@ void SyncOptions::Check() const {
                 min_confidence);
   RELIT_REQUIRE(peak_exclusion_s >= 0 && peak_exclusion_s < max_offset_s,
                 "sync.peak_exclusion_s must be in [0, sync.max_offset_s), got ", peak_exclusion_s);
+  RELIT_REQUIRE(drift_window_s >= 0.5 && drift_window_s <= 600,
+                "sync.drift_window_s must be in [0.5, 600] s, got ", drift_window_s);
+  RELIT_REQUIRE(drift_warn_ms_per_min >= 0 && drift_warn_ms_per_min <= 1000,
+                "sync.drift_warn_ms_per_min must be in [0, 1000], got ", drift_warn_ms_per_min);
 }
 
 nlohmann::json SyncOptions::ToJson() const {
@@ -40,7 +47,10 @@ nlohmann::json SyncOptions::ToJson() const {
           {"sample_rate_hz", sample_rate_hz},
           {"max_offset_s", max_offset_s},
           {"min_confidence", min_confidence},
-          {"peak_exclusion_s", peak_exclusion_s}};
+          {"peak_exclusion_s", peak_exclusion_s},
+          {"correct_drift", correct_drift},
+          {"drift_window_s", drift_window_s},
+          {"drift_warn_ms_per_min", drift_warn_ms_per_min}};
 }
 
 void SelectOptions::Read(OptionsReader& r) {

@@ -21,6 +21,13 @@ struct SyncOptions {
   double max_offset_s = 10.0;        // search window: |offset| <= max_offset_s
   double min_confidence = 2.0;       // main peak / best peak outside the exclusion zone
   double peak_exclusion_s = 0.005;   // half-width around the main peak ignored for the 2nd peak
+  // Clock drift (audio sync only): the offset is measured in windows spread
+  // over the overlap; above the warning rate the log warns, and with
+  // correct_drift phone L times map to phone V's clock by the fitted line
+  // t_view = a + (1 + b) * t_light instead of t_light + offset_s.
+  bool correct_drift = false;
+  double drift_window_s = 3.0;       // length of each window (shorter: less smear from the drift)
+  double drift_warn_ms_per_min = 1.0;
 
   void Read(OptionsReader& reader);
   void Check() const;

@@ -108,6 +108,37 @@ void AnalyseFrames(AnalysedVideo* video_ptr, const CaptureOptions& options,
   }
 }
 
+namespace {
+
+nlohmann::json DriftJson(const DriftEstimate& d, bool corrected, const SyncOptions& o) {
+  nlohmann::json j = {{"model", "t_view = intercept_s + (1 + rate) * t_light"},
+                      {"valid", d.valid},
+                      {"corrected", corrected},
+                      {"warn_ms_per_min", o.drift_warn_ms_per_min},
+                      {"window_s", d.window_s}};
+  if (!d.valid) {
+    j["reason"] = d.reason;
+    j["drift_ms_per_min"] = nullptr;
+    return j;
+  }
+  j["drift_ms_per_min"] = d.ms_per_min();
+  j["rate"] = d.rate;
+  j["intercept_s"] = d.intercept_s;
+  j["overlap_start_light_s"] = d.overlap_start_s;
+  j["overlap_end_light_s"] = d.overlap_end_s;
+  j["offset_at_start_s"] = d.offset_at_start_s;
+  j["offset_at_end_s"] = d.offset_at_end_s;
+  nlohmann::json windows = nlohmann::json::array();
+  for (const DriftWindow& w : d.windows) {
+    windows.push_back({{"light_time_s", w.light_time_s}, {"offset_s", w.offset_s},
+                       {"confidence", w.confidence}});
+  }
+  j["windows"] = windows;
+  return j;
+}
+
+}  // namespace
+
 nlohmann::json SyncResult::ToJson(const SyncOptions& o) const {
   nlohmann::json j = {{"method", method},
                       {"offset_s", offset_s},
@@ -125,11 +156,44 @@ nlohmann::json SyncResult::ToJson(const SyncOptions& o) const {
     j["light_audio_start_s"] = light_audio_start_s;
     j["view_audio_samples"] = view_audio_samples;
     j["light_audio_samples"] = light_audio_samples;
+    j["view_stream_start_s"] = view_stream_start_s;
+    j["light_stream_start_s"] = light_stream_start_s;
+    j["view_first_packet_pts_s"] = view_first_packet_pts_s;
+    j["light_first_packet_pts_s"] = light_first_packet_pts_s;
+    j["drift"] = DriftJson(drift, drift_corrected, o);
   } else {
     j["confidence"] = nullptr;
   }
   return j;
 }
+
+namespace {
+
+void EstimateSyncDrift(const AudioTrack& a, const AudioTrack& b, const SyncOptions& o,
+                       SyncResult* result) {
+  result->drift = EstimateDrift({&a.samples, a.start_s, a.sample_rate_hz},
+                                {&b.samples, b.start_s, b.sample_rate_hz}, result->offset_s,
+                                o.drift_window_s, 0.1, o.min_confidence);
+  const DriftEstimate& d = result->drift;
+  if (!d.valid) {
+    spdlog::log(o.correct_drift ? spdlog::level::warn : spdlog::level::info,
+                "sync: no clock drift estimate: {}{}", d.reason,
+                o.correct_drift ? "; sync.correct_drift not applied" : "");
+    return;
+  }
+  result->drift_corrected = o.correct_drift;
+  spdlog::log(std::abs(d.ms_per_min()) > o.drift_warn_ms_per_min ? spdlog::level::warn
+                                                                 : spdlog::level::info,
+              "sync: clock drift {:+.3f} ms/min (offset {:+.6f} s at the start of the overlap, "
+              "{:+.6f} s at its end, {} windows){}", d.ms_per_min(), d.offset_at_start_s,
+              d.offset_at_end_s, d.windows.size(),
+              o.correct_drift ? "; corrected (sync.correct_drift)"
+              : std::abs(d.ms_per_min()) > o.drift_warn_ms_per_min
+                  ? "; above sync.drift_warn_ms_per_min: set sync.correct_drift: true"
+                  : "");
+}
+
+}  // namespace
 
 SyncResult Synchronise(const VideoInfo& view, const VideoInfo& light, const SyncOptions& o) {
   SyncResult result;
@@ -137,6 +201,9 @@ SyncResult Synchronise(const VideoInfo& view, const VideoInfo& light, const Sync
     result.method = "manual";
     result.offset_s = o.offset_s;
     spdlog::info("sync: manual offset {:+.6f} s (t_view = t_light + offset)", o.offset_s);
+    if (o.correct_drift) {
+      spdlog::warn("sync: sync.correct_drift needs audio sync; not applied with a manual offset");
+    }
     return result;
   }
   for (const VideoInfo* info : {&view, &light}) {
@@ -159,10 +226,15 @@ SyncResult Synchronise(const VideoInfo& view, const VideoInfo& light, const Sync
   result.second_peak_offset_s = (a.start_s - b.start_s) + lag.second_lag_s;
   result.view_audio_start_s = a.start_s;
   result.light_audio_start_s = b.start_s;
+  result.view_stream_start_s = a.stream_start_s;
+  result.light_stream_start_s = b.stream_start_s;
+  result.view_first_packet_pts_s = a.first_packet_pts_s;
+  result.light_first_packet_pts_s = b.first_packet_pts_s;
   result.view_audio_samples = static_cast<int>(a.samples.size());
   result.light_audio_samples = static_cast<int>(b.samples.size());
-  spdlog::info("sync: GCC-PHAT offset {:+.6f} s, confidence {:.2f} (second peak at {:+.4f} s)",
-               result.offset_s, result.confidence, result.second_peak_offset_s);
+  spdlog::info("sync: GCC-PHAT offset {:+.6f} s, confidence {:.2f} (second peak at {:+.4f} s; "
+               "audio starts at {:.6f} s (V) and {:.6f} s (L))", result.offset_s,
+               result.confidence, result.second_peak_offset_s, a.start_s, b.start_s);
   RELIT_REQUIRE(result.confidence >= o.min_confidence,
                 "audio sync of ", view.path, " and ", light.path, " failed: confidence ",
                 result.confidence, " is below sync.min_confidence = ", o.min_confidence,
@@ -170,6 +242,7 @@ SyncResult Synchronise(const VideoInfo& view, const VideoInfo& light, const Sync
                 "unrelated recordings, silence, or an offset beyond sync.max_offset_s = ",
                 o.max_offset_s, " s). Clap once near both phones at the start and film again, or "
                 "pass --offset-s SECONDS (or --max-offset-s / --min-sync-confidence)");
+  EstimateSyncDrift(a, b, o, &result);
   return result;
 }
 

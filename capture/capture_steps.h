@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "capture/audio_sync.h"
 #include "capture/capture_options.h"
 #include "capture/frame_select.h"
 #include "capture/transfer.h"
@@ -44,11 +45,21 @@ struct SyncResult {
   double confidence = 0;       // gcc-phat only
   double peak = 0, second_peak = 0, second_peak_offset_s = 0;
   double view_audio_start_s = 0, light_audio_start_s = 0;
+  double view_stream_start_s = 0, light_stream_start_s = 0;          // ffprobe start_time
+  double view_first_packet_pts_s = 0, light_first_packet_pts_s = 0;  // < start: priming
   int view_audio_samples = 0, light_audio_samples = 0;
+  DriftEstimate drift;         // gcc-phat only
+  bool drift_corrected = false;
+  // A phone L time on phone V's clock: the drift line when drift_corrected,
+  // else t_light + offset_s.
+  double ToViewTime(double light_time_s) const {
+    return drift_corrected ? drift.ToView(light_time_s) : light_time_s + offset_s;
+  }
   nlohmann::json ToJson(const SyncOptions& options) const;
 };
 
-// Manual offset, or GCC-PHAT on the two audio tracks. Throws relit::Error
+// Manual offset, or GCC-PHAT on the two audio tracks (plus the drift
+// estimate, applied with options.correct_drift). Throws relit::Error
 // (naming the option to set) when a track is missing or the confidence is
 // below options.min_confidence.
 SyncResult Synchronise(const VideoInfo& view, const VideoInfo& light, const SyncOptions& options);

@@ -42,6 +42,12 @@ class CaptureSynthTest : public ::testing::Test {
     // The capture stage never reads the evaluation set: keep it minimal.
     o.eval_views = 1;
     o.eval_samples_per_pixel = 1;
+    // Two phones that differ like real ones (issue 25): phone L films 10%
+    // more frames, at 29.97 fps, with 44.1 kHz audio. With equal lengths the
+    // old sync's error (the difference of the two track lengths) was hidden.
+    o.light_frames_per_video = 33;
+    o.light_fps = 29.97;
+    o.light_audio_rate_hz = 44100;
     synth::RunSynthImpl(o);
     truth_ = ReadJsonFile(*dir_ / "synth/truth.json", synth::kTruthKind, synth::kTruthVersion);
   }
@@ -78,6 +84,12 @@ void CheckOffsetAndTimestamps(TempDir* dir_, const nlohmann::json& truth_) {
   const std::string out = *dir_ / "out";
   const CaptureSummary summary = RunCaptureImpl(SynthCaptureOptions(*dir_, *dir_ / "synth/view.mp4", out));
   const double truth = truth_["light_start_offset_s"];
+  EXPECT_EQ(truth_["videos"]["light"]["frame_count"].get<int>(), 33);
+  EXPECT_NEAR(truth_["videos"]["light"]["fps"].get<double>(), 30000.0 / 1001, 1e-9);
+  const nlohmann::json inputs = ReadCaptureJson(out)["inputs"];
+  EXPECT_EQ(inputs["light"]["frames_decoded"].get<int>(), 33);
+  EXPECT_EQ(inputs["light"]["audio_sample_rate_hz"].get<int>(), 44100);
+  EXPECT_EQ(inputs["view"]["frames_decoded"].get<int>(), 30);
   std::cout << "offset: recovered " << summary.offset_s << " s, truth " << truth << " s, error "
             << (summary.offset_s - truth) * 1e3 << " ms, confidence " << summary.confidence << "\n";
   EXPECT_NEAR(summary.offset_s, truth, 2e-3);

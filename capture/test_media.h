@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -35,6 +36,38 @@ void MakeRoomSound(const std::string& wav, double seconds, int seed);
 // of `wav` (none when `wav` is empty). `faststart` puts the index first.
 void MakeVideo(const std::string& mp4, double seconds, const std::string& wav,
                int64_t start_sample, bool faststart = true);
+
+// Room sound with claps at chosen times: `seconds` of pink noise (48 kHz mono
+// WAV) with a 30 ms burst of loud white noise starting at each of clap_times_s.
+void MakeClapRoomSound(const std::string& wav, double seconds, int seed,
+                       const std::vector<double>& clap_times_s);
+
+// One phone's recording of a room WAV (48 kHz), for sync tests. The phone
+// starts at room time room_start_s; its audio is resampled to audio_rate_hz
+// and encoded as AAC (with the encoder's priming), its video is testsrc2 at
+// `fps` (e.g. "30000/1001") and `size`.
+struct PhoneClip {
+  double room_start_s = 0;
+  double seconds = 4;
+  std::string fps = "30";
+  std::string size = "160x120";
+  int audio_rate_hz = 48000;
+  // Clock drift: the phone's clock runs fast by drift_extra_hz / 48000
+  // (its 48 000 samples span 48000 / (48000 + drift_extra_hz) s of room time).
+  int drift_extra_hz = 0;
+  // Remuxed afterwards with the audio stream shifted this much later
+  // (ffmpeg -itsoffset: a non-zero audio start time).
+  double audio_delay_s = 0;
+  // Remuxed afterwards with -ss cut_start_s -c copy: an MP4 edit list that
+  // hides the first cut_start_s of the (still stored) audio.
+  double cut_start_s = 0;
+  // Container time of the sound at room time t: what sync must recover.
+  double ContainerTime(double room_time_s) const {
+    return (room_time_s - room_start_s) * (48000.0 + drift_extra_hz) / 48000.0 + audio_delay_s -
+           cut_start_s;
+  }
+};
+void MakePhoneClip(const std::string& mp4, const std::string& room_wav, const PhoneClip& clip);
 
 // Options for a test run: inputs, output, and quiet logs.
 CaptureOptions TestOptions(const std::string& view, const std::string& light, const std::string& out);

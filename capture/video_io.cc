@@ -277,22 +277,78 @@ void FrameReader::Close() {
   fs::remove(log_path_, ignored);
 }
 
-AudioTrack DecodeAudio(const VideoInfo& info, int sample_rate_hz) {
-  RELIT_CHECK(info.has_audio);
+namespace {
+
+double JsonSeconds(const nlohmann::json& object, const char* key, double fallback) {
+  if (!object.contains(key) || !object[key].is_string()) return fallback;
+  const std::string text = object[key].get<std::string>();
+  char* end = nullptr;
+  const double value = std::strtod(text.c_str(), &end);
+  return end != text.c_str() && std::isfinite(value) ? value : fallback;
+}
+
+// Presentation time of the first audio frame out of the decoder, from the
+// first ashowinfo line of a decode of that one frame.
+double FirstDecodedAudioTime(const VideoInfo& info) {
   const CommandResult result = RunCommand(
       "ffmpeg -nostdin -hide_banner -nostats -loglevel level+info -copyts -i " +
-      ShellQuote(info.path) + " -map 0:a:0 -af ashowinfo -ac 1 -ar " +
-      std::to_string(sample_rate_hz) + " -f f32le pipe:1");
-  AudioTrack track;
-  track.sample_rate_hz = sample_rate_hz;
+      ShellQuote(info.path) + " -map 0:a:0 -af ashowinfo -frames:a 1 -f null -");
   std::vector<double> times;
   DecodeIssue issue;
   ParseShowinfoLog(result.err, info.path, &times, &issue);
-  RELIT_REQUIRE(result.status == 0 && !times.empty(), "cannot decode the audio of the ", info.role,
+  RELIT_REQUIRE(result.ok() && !times.empty(), "cannot decode the audio of the ", info.role, " ",
+                info.path, ": ffmpeg ", ExitDescription(result.status), ": ", LastLine(result.err),
+                "; remux it (ffmpeg -i IN -c copy OUT.mp4) or pass --offset-s SECONDS");
+  return times.front();
+}
+
+}  // namespace
+
+AudioStart ProbeAudioStart(const VideoInfo& info) {
+  RELIT_CHECK(info.has_audio);
+  const CommandResult probe = RunCommand(
+      "ffprobe -v error -select_streams a:0 -show_entries stream=start_time:packet=pts_time "
+      "-read_intervals %+#1 -show_packets -print_format json " + ShellQuote(info.path));
+  const nlohmann::json j = nlohmann::json::parse(probe.out, nullptr, false);
+  RELIT_REQUIRE(probe.ok() && !j.is_discarded(), "cannot read the audio timestamps of the ",
+                info.role, " ", info.path, ": ffprobe ", ExitDescription(probe.status), ": ",
+                LastLine(probe.err), "; remux it (ffmpeg -i IN -c copy OUT.mp4)");
+  AudioStart start;
+  start.decoded_s = FirstDecodedAudioTime(info);
+  start.stream_s = start.decoded_s;
+  if (j.contains("streams") && !j["streams"].empty()) {
+    start.stream_s = JsonSeconds(j["streams"][0], "start_time", start.decoded_s);
+  }
+  start.first_packet_s = start.stream_s;
+  if (j.contains("packets") && !j["packets"].empty()) {
+    start.first_packet_s = JsonSeconds(j["packets"][0], "pts_time", start.stream_s);
+  }
+  return start;
+}
+
+AudioTrack DecodeAudio(const VideoInfo& info, int sample_rate_hz) {
+  RELIT_CHECK(info.has_audio);
+  const AudioStart start = ProbeAudioStart(info);
+  // Raw samples in decoding order: no padding or trimming to timestamps, so
+  // samples[n] is at start.decoded_s + n / rate (the resampler keeps time 0).
+  const CommandResult result = RunCommand(
+      "ffmpeg -nostdin -hide_banner -nostats -loglevel error -copyts -i " +
+      ShellQuote(info.path) + " -map 0:a:0 -ac 1 -ar " + std::to_string(sample_rate_hz) +
+      " -f f32le pipe:1");
+  RELIT_REQUIRE(result.ok() && !result.out.empty(), "cannot decode the audio of the ", info.role,
                 " ", info.path, ": ffmpeg ", ExitDescription(result.status), ": ",
-                LastLine(result.err));
-  if (issue.found) spdlog::warn("{}: audio decoding error: {}", info.path, issue.message);
-  track.start_s = times.front();
+                LastLine(result.err), "; remux it (ffmpeg -i IN -c copy OUT.mp4) or pass "
+                "--offset-s SECONDS");
+  if (!result.err.empty()) spdlog::warn("{}: audio decoding: {}", info.path, LastLine(result.err));
+  if (std::abs(start.decoded_s - start.stream_s) > 0.5e-3) {
+    spdlog::warn("{}: the first decoded audio sample is at {:.6f} s but the stream start_time is "
+                 "{:.6f} s; using the decoded time", info.path, start.decoded_s, start.stream_s);
+  }
+  AudioTrack track;
+  track.sample_rate_hz = sample_rate_hz;
+  track.start_s = start.decoded_s;
+  track.stream_start_s = start.stream_s;
+  track.first_packet_pts_s = start.first_packet_s;
   track.samples.resize(result.out.size() / sizeof(float));
   std::memcpy(track.samples.data(), result.out.data(), track.samples.size() * sizeof(float));
   return track;

@@ -83,10 +83,27 @@ class FrameReader {
 struct AudioTrack {
   std::vector<float> samples;  // mono
   int sample_rate_hz = 0;
-  double start_s = 0;          // presentation time of samples[0]
+  // Presentation time of samples[0]: the timestamp of the first frame the
+  // decoder outputs, after the container's edit list and the encoder delay
+  // (AAC priming) have been applied. Never read from a truncated log.
+  double start_s = 0;
+  double stream_start_s = 0;       // ffprobe's stream start_time (for the record)
+  double first_packet_pts_s = 0;   // first packet's pts (negative with priming)
+  double duration_s() const {
+    return sample_rate_hz > 0 ? static_cast<double>(samples.size()) / sample_rate_hz : 0.0;
+  }
 };
 
-// Decodes the first audio stream as mono float at `sample_rate_hz`.
+// Where the first audio stream starts, from its timestamps: ffprobe's
+// stream start_time and first packet pts, and the presentation time of the
+// first decoded frame (ffmpeg -copyts, ashowinfo on that frame only).
+struct AudioStart {
+  double decoded_s = 0, stream_s = 0, first_packet_s = 0;
+};
+AudioStart ProbeAudioStart(const VideoInfo& info);
+
+// Decodes the first audio stream as mono float at `sample_rate_hz`; the
+// samples come through stdout in full, the start from ProbeAudioStart.
 AudioTrack DecodeAudio(const VideoInfo& info, int sample_rate_hz);
 
 // Size and a content hash (FNV-1a 64 over every byte, hex) of a file, so a

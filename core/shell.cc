@@ -33,12 +33,19 @@ std::string ExitDescription(int status) {
   return "failed";
 }
 
+std::string CommandResult::ErrTail(size_t max_chars) const {
+  if (err.size() <= max_chars) return err;
+  return "[last " + std::to_string(max_chars) + " of " + std::to_string(err.size()) + " chars] " +
+         err.substr(err.size() - max_chars);
+}
+
 CommandResult RunCommand(const std::string& command) {
   static std::atomic<int> counter{0};
   const std::filesystem::path log =
       std::filesystem::temp_directory_path() /
       ("relit-cmd-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ".log");
-  FILE* pipe = ::popen((command + " 2>" + ShellQuote(log.string())).c_str(), "r");
+  // The group makes the redirection cover every part of a compound command.
+  FILE* pipe = ::popen(("{ " + command + "\n} 2>" + ShellQuote(log.string())).c_str(), "r");
   RELIT_REQUIRE(pipe != nullptr, "cannot start a shell for: ", command.substr(0, command.find(' ')));
   CommandResult result;
   char buffer[1 << 16];
@@ -49,7 +56,6 @@ CommandResult RunCommand(const std::string& command) {
   std::ostringstream err;
   err << in.rdbuf();
   result.err = err.str();
-  if (result.err.size() > 4096) result.err = "..." + result.err.substr(result.err.size() - 4096);
   std::error_code ignored;
   std::filesystem::remove(log, ignored);
   return result;

@@ -137,7 +137,7 @@ void EncodeMp4(const fs::path& frames_dir, const fs::path& mp4, double fps, int 
       " -c:v libx264 -crf 18 " + ShellQuote(mp4.string());
   const CommandResult result = RunCommand(command);
   RELIT_REQUIRE(result.ok(), "ffmpeg ", ExitDescription(result.status), " while encoding ", mp4.string(), ": ",
-                result.err);
+                result.ErrTail());
 }
 
 }  // namespace

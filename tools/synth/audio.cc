@@ -61,10 +61,16 @@ float RoomSound::RoomAt(double t_s) const {
 
 std::vector<float> RoomSound::Record(double recording_start_s, int64_t sample_count,
                                      double mic_gain, uint64_t mic_seed) const {
+  return Record(recording_start_s, sample_count, params_.sample_rate_hz, mic_gain, mic_seed);
+}
+
+std::vector<float> RoomSound::Record(double recording_start_s, int64_t sample_count, int rate_hz,
+                                     double mic_gain, uint64_t mic_seed) const {
+  RELIT_CHECK(rate_hz > 0);
   std::vector<float> samples(sample_count);
   uint64_t state = mic_seed ^ 0x0303ab1eULL;
   for (int64_t n = 0; n < sample_count; ++n) {
-    const double t = recording_start_s + static_cast<double>(n) / params_.sample_rate_hz;
+    const double t = recording_start_s + static_cast<double>(n) / rate_hz;
     samples[n] = static_cast<float>(mic_gain * RoomAt(t) +
                                     params_.mic_noise_rms * NormalFromState(&state));
   }

@@ -32,6 +32,9 @@ class RoomSound {
   // `recording_start_s` and lasts `sample_count` samples.
   std::vector<float> Record(double recording_start_s, int64_t sample_count, double mic_gain,
                             uint64_t mic_seed) const;
+  // The same at another sample rate (the room signal is interpolated).
+  std::vector<float> Record(double recording_start_s, int64_t sample_count, int rate_hz,
+                            double mic_gain, uint64_t mic_seed) const;
 
   const std::vector<double>& clap_times_s() const { return clap_times_s_; }
   int sample_rate_hz() const { return params_.sample_rate_hz; }

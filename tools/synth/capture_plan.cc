@@ -45,13 +45,15 @@ HandheldPathParams PathParams(const SynthOptions& o, const SynthScene& scene, do
 VideoPlan SampleVideo(const std::string& name, const std::string& phone, const std::string& lighting,
                       const Intrinsics& intrinsics, const HandheldPath& path,
                       const HandheldPath* flash_path, const Eigen::Vector3d& flash_offset_cam_m,
-                      double start_common_s, int frame_count, int fps) {
+                      double start_common_s, int frame_count, double fps, int audio_rate_hz) {
   VideoPlan video;
   video.name = name;
   video.phone = phone;
   video.lighting = lighting;
   video.intrinsics = intrinsics;
   video.start_common_s = start_common_s;
+  video.fps = fps;
+  video.audio_rate_hz = audio_rate_hz;
   for (int i = 0; i < frame_count; ++i) {
     FramePlan frame;
     frame.index = i;
@@ -143,7 +145,7 @@ CapturePlan MakeCapturePlan(const SynthOptions& o, const SynthScene& scene) {
   // Claps where both phones are recording, away from the overlap's ends.
   const double duration = o.duration_s();
   const double overlap_begin = std::max(0.0, plan.light_start_offset_s);
-  const double overlap_end = std::min(duration, plan.light_start_offset_s + duration);
+  const double overlap_end = std::min(duration, plan.light_start_offset_s + o.light_duration_s());
   const double margin = 0.1 * (overlap_end - overlap_begin);
   plan.clap_times_common_s = PickClapTimes(overlap_begin + margin, overlap_end - margin, o.clap_count,
                                            0.05, SubSeed(o.seed, kClaps));
@@ -158,15 +160,16 @@ CapturePlan MakeCapturePlan(const SynthOptions& o, const SynthScene& scene) {
   const HandheldPath view_path(plan.view_path, SubSeed(o.seed, kViewPath));
   const HandheldPath light_path(plan.light_path, SubSeed(o.seed, kLightPath));
   plan.view = SampleVideo("view", "view", "flash", plan.view_intrinsics, view_path, &light_path,
-                          plan.flash_offset_cam_m, 0.0, o.frames_per_video, o.fps);
+                          plan.flash_offset_cam_m, 0.0, o.frames_per_video, o.fps,
+                          o.view_audio_rate_hz);
   plan.light = SampleVideo("light", "light", "flash", plan.light_intrinsics, light_path, &light_path,
-                           plan.flash_offset_cam_m, plan.light_start_offset_s, o.frames_per_video,
-                           o.fps);
+                           plan.flash_offset_cam_m, plan.light_start_offset_s, o.LightFrames(),
+                           o.LightFps(), o.light_audio_rate_hz);
   if (o.geometry_pass) {
     const HandheldPath geometry_path(plan.geometry_path, SubSeed(o.seed, kGeometryPath));
     plan.geometry = SampleVideo("geometry", "view", "environment", plan.view_intrinsics,
                                 geometry_path, nullptr, Eigen::Vector3d::Zero(), 0.0,
-                                o.frames_per_video, o.fps);
+                                o.frames_per_video, o.fps, o.view_audio_rate_hz);
   }
 
   if (o.board_clip_frames > 0) {

@@ -5,8 +5,9 @@
 //
 // Time convention (also in truth.json): t_common = t_view = t_light +
 // light_start_offset_s. Frame i of a phone's video is at time i / fps on that
-// phone's own clock, so phone V's frame i is at t_common = i / fps and phone
-// L's frame j at t_common = j / fps + light_start_offset_s. A positive
+// phone's own clock (each phone its own fps and frame count), so phone V's
+// frame i is at t_common = i / fps_V and phone L's frame j at
+// t_common = j / fps_L + light_start_offset_s. A positive
 // offset means phone L started recording later than phone V.
 #pragma once
 
@@ -36,6 +37,9 @@ struct VideoPlan {
   std::string lighting;    // "flash" or "environment"
   Intrinsics intrinsics;
   double start_common_s = 0;  // common time of frame 0 (geometry: its own session)
+  double fps = 30;            // exact (29.97 is 30000/1001): frame i at t_own = i / fps
+  int audio_rate_hz = 48000;
+  double duration_s() const { return static_cast<double>(frames.size()) / fps; }
   std::vector<FramePlan> frames;
 };
 

@@ -36,8 +36,16 @@ std::string ReadTail(const std::string& path, size_t max_chars = 600) {
 std::string RunCapture(const std::string& command, const std::string& what) {
   const CommandResult result = RunCommand(command);
   RELIT_REQUIRE(result.ok(), what, ": ", command.substr(0, command.find(' ')), " ", ExitDescription(result.status),
-                ": ", result.err.size() > 600 ? result.err.substr(result.err.size() - 600) : result.err);
+                ": ", result.ErrTail(600));
   return result.out;
+}
+
+// 30 -> "30", 30000/1001 -> "30000/1001", 24.5 -> "49/2"-style via 1/1000.
+std::string FpsRational(double fps) {
+  const double ntsc = fps * 1.001;
+  if (std::abs(fps - std::round(fps)) < 1e-9) return std::to_string(std::lround(fps));
+  if (std::abs(ntsc - std::round(ntsc)) < 1e-6) return std::to_string(std::lround(ntsc) * 1000) + "/1001";
+  return std::to_string(std::lround(fps * 1000)) + "/1000";
 }
 
 }  // namespace
@@ -60,16 +68,16 @@ VideoEncoder::VideoEncoder(const std::string& output_mp4, const VideoEncodeParam
   std::ostringstream cmd;
   cmd << "ffmpeg -nostdin -y -hide_banner -loglevel error"
       << " -f rawvideo -pix_fmt rgb24 -s " << params_.width_px << "x" << params_.height_px
-      << " -framerate " << params_.fps << " -i -";
+      << " -framerate " << FpsRational(params_.fps) << " -i -";
   if (!params_.audio_wav.empty()) cmd << " -i " << ShellQuote(params_.audio_wav);
   cmd << " -map 0:v:0";
   if (!params_.audio_wav.empty()) cmd << " -map 1:a:0";
   // RGB -> BT.709 limited-range YUV, tagged as such with the sRGB transfer.
   cmd << " -vf scale=out_color_matrix=bt709:out_range=tv"
       << " -c:v libx264 -preset " << params_.x264_preset << " -crf " << params_.crf
-      << " -pix_fmt yuv420p -r " << params_.fps
+      << " -pix_fmt yuv420p -r " << FpsRational(params_.fps)
       << " -color_primaries bt709 -color_trc iec61966-2-1 -colorspace bt709 -color_range tv";
-  if (!params_.audio_wav.empty()) cmd << " -c:a aac -b:a 192k -ar 48000";
+  if (!params_.audio_wav.empty()) cmd << " -c:a aac -b:a 192k -ar " << params_.audio_rate_hz;
   // ffmpeg 5.1 drops "rotate" when encoding; Finish() adds it by remuxing.
   encoded_ = params_.display_rotation_deg != 0 ? output_ + ".unrotated.mp4" : output_;
   cmd << " -movflags +faststart -f mp4 " << ShellQuote(encoded_) << " 2>" << ShellQuote(log_path_);

@@ -14,7 +14,8 @@ namespace relit::synth {
 struct VideoEncodeParams {
   int width_px = 0;
   int height_px = 0;
-  int fps = 30;
+  double fps = 30;                 // exact: 30000/1001 is written as such
+  int audio_rate_hz = 48000;
   int crf = 14;                    // libx264 constant rate factor (lower = better)
   std::string x264_preset = "medium";
   int display_rotation_deg = 0;    // 0/90/180/270: phone-style "rotate" metadata (clockwise)
@@ -23,7 +24,8 @@ struct VideoEncodeParams {
 };
 
 // Streams 8-bit sRGB frames into `ffmpeg ... -c:v libx264 -pix_fmt yuv420p`
-// writing an MP4 (BT.709 matrix, sRGB transfer tag, 48 kHz AAC audio).
+// writing an MP4 (BT.709 matrix, sRGB transfer tag, AAC audio at
+// audio_rate_hz).
 class VideoEncoder {
  public:
   VideoEncoder(const std::string& output_mp4, const VideoEncodeParams& params);

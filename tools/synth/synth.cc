@@ -40,16 +40,23 @@ Image AlphaChannel(const render::RenderResult& result) {
 void WriteAudio(const SynthOptions& o, const CapturePlan& plan, const fs::path& root) {
   const RoomSoundParams params;
   const double duration = o.duration_s();
-  const int64_t samples = static_cast<int64_t>(o.frames_per_video) * params.sample_rate_hz / o.fps;
+  // Each phone records as long as its video, at its own sample rate.
+  const auto samples = [](const VideoPlan& video) {
+    return static_cast<int64_t>(std::llround(video.duration_s() * video.audio_rate_hz));
+  };
   const double begin = std::min(0.0, plan.light_start_offset_s) - 0.01;
-  const double end = std::max(duration, plan.light_start_offset_s + duration) + 0.01;
+  const double end =
+      std::max(duration, plan.light_start_offset_s + plan.light.duration_s()) + 0.01;
   const RoomSound room(params, begin, end, plan.clap_times_common_s, SubSeed(o.seed, kRoomSound));
   fs::create_directories(root / "truth/audio");
   WriteWav((root / "truth/audio/view.wav").string(),
-           room.Record(0.0, samples, 1.0, SubSeed(o.seed, kMic)), params.sample_rate_hz);
+           room.Record(0.0, samples(plan.view), plan.view.audio_rate_hz, 1.0,
+                       SubSeed(o.seed, kMic)),
+           plan.view.audio_rate_hz);
   WriteWav((root / "truth/audio/light.wav").string(),
-           room.Record(plan.light_start_offset_s, samples, 0.8, SubSeed(o.seed, kMic + 1)),
-           params.sample_rate_hz);
+           room.Record(plan.light_start_offset_s, samples(plan.light), plan.light.audio_rate_hz,
+                       0.8, SubSeed(o.seed, kMic + 1)),
+           plan.light.audio_rate_hz);
   if (!plan.geometry.frames.empty()) {
     // A separate session: its own room sound and claps.
     const RoomSound other(params, -0.01, duration + 0.01,
@@ -57,7 +64,9 @@ void WriteAudio(const SynthOptions& o, const CapturePlan& plan, const fs::path& 
                                         SubSeed(o.seed, kGeometryRoom)),
                           SubSeed(o.seed, kGeometryRoom));
     WriteWav((root / "truth/audio/geometry.wav").string(),
-             other.Record(0.0, samples, 1.0, SubSeed(o.seed, kMic + 2)), params.sample_rate_hz);
+             other.Record(0.0, samples(plan.geometry), plan.geometry.audio_rate_hz, 1.0,
+                          SubSeed(o.seed, kMic + 2)),
+             plan.geometry.audio_rate_hz);
   }
 }
 
@@ -87,7 +96,8 @@ void RenderVideo(const SynthOptions& o, const VideoPlan& video, int video_index,
   VideoEncodeParams encode;
   encode.width_px = o.width_px;
   encode.height_px = o.height_px;
-  encode.fps = o.fps;
+  encode.fps = video.fps;
+  encode.audio_rate_hz = video.audio_rate_hz;
   encode.crf = o.crf;
   encode.display_rotation_deg = o.display_rotation_deg;
   encode.audio_wav = (root / ("truth/audio/" + video.name + ".wav")).string();

@@ -9,6 +9,12 @@
 
 namespace relit::synth {
 
+double SynthOptions::ExactFps(double fps) {
+  const double ntsc = std::round(fps * 1.001) / 1.001;
+  const bool integer = std::abs(fps - std::round(fps)) < 1e-9;
+  return !integer && std::abs(fps - ntsc) < 0.01 ? ntsc : fps;
+}
+
 std::vector<std::string> SizeNames() { return {"tiny", "demo", "full"}; }
 
 SynthOptions SynthOptions::ForSize(const std::string& size) {
@@ -101,6 +107,10 @@ void SynthOptions::Read(OptionsReader& r) {
   r.ReadRange("max_depth", &max_depth, 1, 64);
   r.ReadRange("crf", &crf, 0, 51);
   r.Read("display_rotation_deg", &display_rotation_deg);
+  r.ReadRange("light_frames_per_video", &light_frames_per_video, 0, 100000);
+  r.ReadRange("light_fps", &light_fps, 0.0, 240.0);
+  r.ReadRange("view_audio_rate_hz", &view_audio_rate_hz, 8000, 192000);
+  r.ReadRange("light_audio_rate_hz", &light_audio_rate_hz, 8000, 192000);
   r.ReadRange("view_hfov_deg", &view_hfov_deg, 20.0, 120.0);
   r.ReadRange("light_hfov_deg", &light_hfov_deg, 20.0, 120.0);
   r.Read("view_principal_offset", &view_principal_offset);
@@ -160,6 +170,14 @@ void SynthOptions::Check() const {
                 "x", height_px);
   RELIT_REQUIRE(fps >= 1 && fps <= 240, "fps must be in [1, 240], got ", fps);
   RELIT_REQUIRE(frames_per_video >= 2, "frames_per_video must be >= 2, got ", frames_per_video);
+  RELIT_REQUIRE(light_frames_per_video == 0 || light_frames_per_video >= 2,
+                "light_frames_per_video must be 0 (= frames_per_video) or >= 2, got ",
+                light_frames_per_video);
+  RELIT_REQUIRE(light_fps == 0 || (light_fps >= 1 && light_fps <= 240),
+                "light_fps must be 0 (= fps) or in [1, 240], got ", light_fps);
+  RELIT_REQUIRE(view_audio_rate_hz >= 8000 && light_audio_rate_hz >= 8000 &&
+                    view_audio_rate_hz <= 192000 && light_audio_rate_hz <= 192000,
+                "view_audio_rate_hz and light_audio_rate_hz must be in [8000, 192000] Hz");
   RELIT_REQUIRE(samples_per_pixel >= 1 && eval_samples_per_pixel >= 1,
                 "samples per pixel must be >= 1");
   RELIT_REQUIRE(max_depth >= 1, "max_depth must be >= 1, got ", max_depth);
@@ -220,6 +238,8 @@ nlohmann::json SynthOptions::ToJson() const {
       {"width_px", width_px}, {"height_px", height_px}, {"fps", fps},
       {"frames_per_video", frames_per_video}, {"samples_per_pixel", samples_per_pixel},
       {"max_depth", max_depth}, {"crf", crf}, {"display_rotation_deg", display_rotation_deg},
+      {"light_frames_per_video", light_frames_per_video}, {"light_fps", light_fps},
+      {"view_audio_rate_hz", view_audio_rate_hz}, {"light_audio_rate_hz", light_audio_rate_hz},
       {"view_hfov_deg", view_hfov_deg}, {"light_hfov_deg", light_hfov_deg},
       {"view_principal_offset", view_principal_offset},
       {"light_principal_offset", light_principal_offset},

@@ -41,6 +41,14 @@ struct SynthOptions {
   int max_depth = 3;                 // path length in bounces
   int crf = 14;
   int display_rotation_deg = 0;      // phone-style rotate metadata on the MP4s
+  // Phone L differs from phone V like a second real phone: its own frame
+  // count (0 = frames_per_video), frame rate (0 = fps; 29.97, 59.94, 23.976
+  // mean 30000/1001, ...) and audio sample rate. Phone V's audio rate is
+  // view_audio_rate_hz.
+  int light_frames_per_video = 0;
+  double light_fps = 0.0;
+  int view_audio_rate_hz = 48000;
+  int light_audio_rate_hz = 48000;
 
   // Phone lenses: horizontal field of view, principal point offset (fraction
   // of the image size) and OpenCV distortion (k1, k2, p1, p2, k3).
@@ -100,6 +108,11 @@ struct SynthOptions {
   nlohmann::json ToJson() const;
 
   double duration_s() const { return static_cast<double>(frames_per_video) / fps; }
+  int LightFrames() const { return light_frames_per_video > 0 ? light_frames_per_video : frames_per_video; }
+  double LightFps() const { return ExactFps(light_fps > 0 ? light_fps : fps); }
+  double light_duration_s() const { return LightFrames() / LightFps(); }
+  // 29.97 -> 30000/1001 (NTSC-style rates), other rates unchanged.
+  static double ExactFps(double fps);
 };
 
 std::vector<std::string> SizeNames();

@@ -135,5 +135,28 @@ TEST(CapturePlan, PhoneLMovesAboutThreeTimesFasterAndCarriesTheFlash) {
   }
 }
 
+// Phone L with its own frame count, 29.97 fps and audio rate (issue 25).
+TEST(CapturePlan, PhoneLHasItsOwnFrameCountAndRate) {
+  SynthOptions options = SynthOptions::ForSize("tiny");
+  options.out = "unused";
+  options.light_frames_per_video = 37;
+  options.light_fps = 29.97;
+  options.light_audio_rate_hz = 44100;
+  EXPECT_DOUBLE_EQ(options.LightFps(), 30000.0 / 1001);
+  EXPECT_DOUBLE_EQ(SynthOptions::ExactFps(30.0), 30.0);
+  EXPECT_DOUBLE_EQ(SynthOptions::ExactFps(59.94), 60000.0 / 1001);
+  EXPECT_DOUBLE_EQ(SynthOptions::ExactFps(25.0), 25.0);
+  SynthScene scene;
+  const CapturePlan plan = MakeCapturePlan(options, scene);
+  ASSERT_EQ(plan.light.frames.size(), 37u);
+  ASSERT_EQ(plan.view.frames.size(), 30u);
+  EXPECT_EQ(plan.light.audio_rate_hz, 44100);
+  EXPECT_EQ(plan.view.audio_rate_hz, 48000);
+  EXPECT_NEAR(plan.light.frames[30].t_own_s, 30 * 1001.0 / 30000, 1e-12);
+  EXPECT_NEAR(plan.light.frames[30].t_common_s,
+              30 * 1001.0 / 30000 + plan.light_start_offset_s, 1e-12);
+  EXPECT_NEAR(plan.view.frames[29].t_own_s, 29 / 30.0, 1e-12);
+}
+
 }  // namespace
 }  // namespace relit::synth

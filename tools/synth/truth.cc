@@ -34,7 +34,8 @@ nlohmann::json VideoJson(const VideoPlan& video, const SynthOptions& o, bool wit
   nlohmann::json j = {{"file", video.name + ".mp4"},
                       {"phone", video.phone},
                       {"lighting", video.lighting},
-                      {"fps", o.fps},
+                      {"fps", video.fps},
+                      {"audio_sample_rate_hz", video.audio_rate_hz},
                       {"frame_count", static_cast<int>(video.frames.size())},
                       {"start_common_s", video.start_common_s},
                       {"display_rotation_deg", o.display_rotation_deg},
@@ -105,13 +106,14 @@ nlohmann::json MakeTruthJson(const SynthOptions& o, const SynthScene& scene, con
       {"distortion", "OpenCV 5-parameter (k1, k2, p1, p2, k3) on normalised coordinates; video "
                      "frames and mattes are distorted, eval images are undistorted pinhole"},
       {"time", "t_common = t_view = t_light + light_start_offset_s; frame i of a video is at "
-               "t_own = i / fps on its phone's clock; light_start_offset_s > 0 means phone L "
+               "t_own = i / fps on its phone's clock (videos.<name>.fps; phones may differ); light_start_offset_s > 0 means phone L "
                "started recording after phone V"},
       {"audio", "both recordings start with their first video frame; the shared room sound at "
                 "common time t is heard at t - start_common_s in each file"}};
   j["fps"] = o.fps;
   j["light_start_offset_s"] = plan.light_start_offset_s;
-  j["audio"] = {{"sample_rate_hz", 48000},
+  j["audio"] = {{"sample_rate_hz", o.view_audio_rate_hz},
+                {"light_sample_rate_hz", o.light_audio_rate_hz},
                 {"clap_times_common_s", plan.clap_times_common_s},
                 {"raw_tracks", {{"view", "truth/audio/view.wav"}, {"light", "truth/audio/light.wav"}}}};
   const auto corners = CharucoCornersWorld(scene.board);
