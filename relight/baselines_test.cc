@@ -109,7 +109,7 @@ class BaselinesTest : public ::testing::Test {
     EXPECT_EQ(eval["model_variant"], variant);
     EXPECT_EQ(eval["methods"], json({"model"}));
     EXPECT_TRUE(eval["skipped_reasons"].contains("cues_only")) << eval["skipped_reasons"].dump();
-    ASSERT_EQ(eval["images"].size(), 10u);  // 2 views x 5 lights, env maps included
+    ASSERT_EQ(eval["images"].size(), 15u);  // (2 extrapolation + 1 interpolation) views x 5 lights, env maps included
     for (const json& row : eval["summary"]) {
       for (const char* key : {"psnr_db", "mae", "ssim", "alpha_mae"}) {
         ASSERT_TRUE(row[key].is_number()) << row.dump();
