@@ -308,14 +308,20 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
   if (options.clip_radiance > 0) {
     spdlog::info("eval: render and truth clipped to [0, {}] per channel (eval.clip_radiance)", options.clip_radiance);
   }
-  const size_t view_count =
-      options.max_views > 0 ? std::min<size_t>(options.max_views, truth.views.size()) : truth.views.size();
+  // max_views keeps the first N views of each set, so a quick eval still
+  // scores interpolation and extrapolation views.
+  std::vector<size_t> selected;
+  std::map<std::string, int> per_set;
+  for (size_t v = 0; v < truth.views.size(); ++v) {
+    if (options.max_views == 0 || per_set[truth.views[v].set]++ < options.max_views) selected.push_back(v);
+  }
+  const size_t view_count = selected.size();
 
   AtomicDir out = guard ? AtomicDir(out_dir, *guard) : AtomicDir(out_dir);
   std::vector<EvalImageResult> results, floors;
   json zooms = json::array();  // truth | methods strips zoomed on the object, one per image
   Progress progress("eval", static_cast<int64_t>(view_count * truth.lights.size()));
-  for (size_t v = 0; v < view_count; ++v) {
+  for (const size_t v : selected) {
     const TruthView& view = truth.views[v];
     const Camera camera(truth.intrinsics, view.cam_from_world);
     const Image matte = ReadImage(view.alpha).SelectChannels(std::vector<int>{0});

@@ -51,7 +51,7 @@ struct EvalOptions {
   std::vector<std::string> methods = {"model", "model_point_light", "cues_only"};
   int samples_per_pixel = 0;        // cue paths for the eval views; 0 = render.samples_per_pixel
   uint64_t seed = 1;                // per-image cue seeds derive from it
-  int max_views = 0;                // 0 = every eval view (else the first N, for quick checks)
+  int max_views = 0;                // 0 = every eval view (else the first N of each view set, for quick checks)
   int baseline_resolution_px = 128; // cues_only texel grid
   double baseline_ridge = 4.0;      // cues_only pull towards the global fit (pixels' worth)
   double error_map_scale = 5.0;     // error PNGs show |pred - GT| x this
