@@ -173,6 +173,16 @@ void RequireSize(const Image& image, const Intrinsics& intrinsics, const std::st
                 intrinsics.height);
 }
 
+EvalImageResult ResultFor(const TruthView& view, const TruthLight& light, const std::string& method) {
+  EvalImageResult r;
+  r.view = view.name;
+  r.light = light.name;
+  r.light_type = light.type;
+  r.method = method;
+  r.view_set = view.set;
+  return r;
+}
+
 // The truth's own noise: its twin (same image, independent seed) scored as a
 // method would be. The pair's difference holds both renders' noise, twice
 // one render's variance, so the floor is half the pair's MSE: the score a
@@ -185,20 +195,8 @@ EvalImageResult TruthNoiseFloor(const TruthView& view, const TruthLight& light, 
   RequireSize(twin, truth.intrinsics, path);
   twin = Scaled(twin.SelectChannels(std::vector<int>{0, 1, 2}), truth.exposure);
   ClipRadiance(&twin, clip_radiance);
-  Image premultiplied(twin.width(), twin.height(), 4);
-  for (int y = 0; y < twin.height(); ++y) {
-    for (int x = 0; x < twin.width(); ++x) {
-      const float a = matte.at(x, y, 0);
-      for (int c = 0; c < 3; ++c) premultiplied.at(x, y, c) = twin.at(x, y, c) * a;
-      premultiplied.at(x, y, 3) = a;
-    }
-  }
-  EvalImageResult r;
-  r.view = view.name;
-  r.light = light.name;
-  r.light_type = light.type;
-  r.method = kTruthNoiseFloor;
-  r.view_set = view.set;
+  const Image premultiplied = PremultipliedByMatte(twin, matte);
+  EvalImageResult r = ResultFor(view, light, kTruthNoiseFloor);
   r.metrics = CompareToReference(premultiplied, reference, matte);
   r.metrics.mse /= 2;
   r.metrics.mae /= std::sqrt(2.0);
@@ -356,12 +354,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
                                             : renderers.at(method)->RenderCues(cues, camera.Center());
         }
         ClipRadiance(&predicted, options.clip_radiance);
-        EvalImageResult r;
-        r.view = view.name;
-        r.light = light.name;
-        r.light_type = light.type;
-        r.method = method;
-        r.view_set = view.set;
+        EvalImageResult r = ResultFor(view, light, method);
         r.metrics = CompareToReference(predicted, reference, matte);
         r.ssim = ForegroundSsim(predicted, reference, matte);
         if (options.write_images) {

@@ -141,6 +141,8 @@ inline constexpr const char* kTruthNoiseFloor = "truth_noise_floor";
 // PNG helpers (eval_report.cc): premultiplied RGBA over grey, sRGB; GT RGB
 // x matte over the same grey; |pred - GT x matte| x scale (linear, clipped).
 void WriteRenderPng(const std::string& path, const Image& rgba);
+// RGB x matte (clamped to [0, 1]) with the matte as alpha: premultiplied RGBA.
+Image PremultipliedByMatte(const Image& rgb, const Image& matte);
 // Truth | render | render ... side by side, cropped to the GT foreground's
 // bounding box (+15 %) and enlarged by a whole factor to about `height_px`,
 // over the same grey, sRGB. False (nothing written) without a foreground.

@@ -153,29 +153,39 @@ double ForegroundSsim(const Image& predicted, const Image& reference_rgb, const 
   return (ssim[0] + ssim[1] + ssim[2]) / 3.0;
 }
 
+namespace {
+
+// One premultiplied linear RGBA pixel over the grey background, sRGB-encoded into png(x, y).
+void OverGreySrgb(const float* rgba, Image& png, int x, int y) {
+  static const float grey = SrgbToLinear(kGreySrgb);
+  const float a = std::clamp(rgba[3], 0.0f, 1.0f);
+  for (int c = 0; c < 3; ++c) png.at(x, y, c) = LinearToSrgb(std::clamp(rgba[c] + (1 - a) * grey, 0.0f, 1.0f));
+}
+
+}  // namespace
+
 void WriteRenderPng(const std::string& path, const Image& rgba) {
-  const float grey = SrgbToLinear(kGreySrgb);
   Image png(rgba.width(), rgba.height(), {"R", "G", "B"});
   for (int y = 0; y < rgba.height(); ++y) {
-    for (int x = 0; x < rgba.width(); ++x) {
-      const float* p = rgba.pixel(x, y);
-      const float a = std::clamp(p[3], 0.0f, 1.0f);
-      for (int c = 0; c < 3; ++c) png.at(x, y, c) = LinearToSrgb(std::clamp(p[c] + (1 - a) * grey, 0.0f, 1.0f));
-    }
+    for (int x = 0; x < rgba.width(); ++x) OverGreySrgb(rgba.pixel(x, y), png, x, y);
   }
   WriteImage(path, png, PixelStorage::kUint8);
 }
 
-void WriteReferencePng(const std::string& path, const Image& reference_rgb, const Image& matte) {
-  Image rgba(reference_rgb.width(), reference_rgb.height(), {"R", "G", "B", "A"});
+Image PremultipliedByMatte(const Image& rgb, const Image& matte) {
+  Image rgba(rgb.width(), rgb.height(), {"R", "G", "B", "A"});
   for (int y = 0; y < rgba.height(); ++y) {
     for (int x = 0; x < rgba.width(); ++x) {
       const float m = std::clamp(matte.at(x, y, 0), 0.0f, 1.0f);
-      for (int c = 0; c < 3; ++c) rgba.at(x, y, c) = reference_rgb.at(x, y, c) * m;
+      for (int c = 0; c < 3; ++c) rgba.at(x, y, c) = rgb.at(x, y, c) * m;
       rgba.at(x, y, 3) = m;
     }
   }
-  WriteRenderPng(path, rgba);
+  return rgba;
+}
+
+void WriteReferencePng(const std::string& path, const Image& reference_rgb, const Image& matte) {
+  WriteRenderPng(path, PremultipliedByMatte(reference_rgb, matte));
 }
 
 void WriteErrorPng(const std::string& path, const Image& rgba, const Image& reference_rgb, const Image& matte,
@@ -209,15 +219,7 @@ bool WriteZoomStripPng(const std::string& path, const Image& reference_rgb, cons
   x1 = std::min(matte.width() - 1, x1 + margin), y1 = std::min(matte.height() - 1, y1 + margin);
   const int crop_w = x1 - x0 + 1, crop_h = y1 - y0 + 1;
   const int zoom = std::max(1, height_px / crop_h);  // whole pixels: no resampling blur
-  const float grey = SrgbToLinear(kGreySrgb);
-  Image rgba_reference(reference_rgb.width(), reference_rgb.height(), {"R", "G", "B", "A"});
-  for (int y = 0; y < matte.height(); ++y) {
-    for (int x = 0; x < matte.width(); ++x) {
-      const float m = std::clamp(matte.at(x, y, 0), 0.0f, 1.0f);
-      for (int c = 0; c < 3; ++c) rgba_reference.at(x, y, c) = reference_rgb.at(x, y, c) * m;
-      rgba_reference.at(x, y, 3) = m;
-    }
-  }
+  const Image rgba_reference = PremultipliedByMatte(reference_rgb, matte);
   std::vector<const Image*> panels = {&rgba_reference};
   panels.insert(panels.end(), renders.begin(), renders.end());
   const int gap = 4;
@@ -225,13 +227,7 @@ bool WriteZoomStripPng(const std::string& path, const Image& reference_rgb, cons
   for (size_t i = 0; i < panels.size(); ++i) {
     const int left = static_cast<int>(i) * (crop_w * zoom + gap);
     for (int y = 0; y < crop_h * zoom; ++y) {
-      for (int x = 0; x < crop_w * zoom; ++x) {
-        const float* p = panels[i]->pixel(x0 + x / zoom, y0 + y / zoom);
-        const float a = std::clamp(p[3], 0.0f, 1.0f);
-        for (int c = 0; c < 3; ++c) {
-          png.at(left + x, y, c) = LinearToSrgb(std::clamp(p[c] + (1 - a) * grey, 0.0f, 1.0f));
-        }
-      }
+      for (int x = 0; x < crop_w * zoom; ++x) OverGreySrgb(panels[i]->pixel(x0 + x / zoom, y0 + y / zoom), png, left + x, y);
     }
   }
   WriteImage(path, png, PixelStorage::kUint8);

@@ -4,6 +4,8 @@
 
 #include "core/error.h"
 #include "core/image.h"
+#include "core/json_file.h"
+#include "core/workspace.h"
 #include "core/render/mesh.h"
 
 namespace relit::relight {
@@ -26,40 +28,25 @@ void SupportPlane::Check(const std::string& where) const {
 nlohmann::json SupportPlane::ToJson() const {
   if (!enabled) return {{"enabled", false}};
   return {{"enabled", true},
-          {"board",
-           {{"squares_x", board.squares_x},
-            {"squares_y", board.squares_y},
-            {"square_length_m", board.square_length_m},
-            {"marker_length_m", board.marker_length_m},
-            {"dictionary", board.dictionary}}},
+          {"board", relit::ToJson(board)},
           {"paper_albedo", paper_albedo},
           {"ink_albedo", ink_albedo},
           {"paper_margin_m", paper_margin_m},
-          {"table_albedo", {table_albedo.x(), table_albedo.y(), table_albedo.z()}},
+          {"table_albedo", relit::ToJson(table_albedo)},
           {"table_half_size_m", table_half_size_m}};
 }
 
 SupportPlane SupportPlane::FromJson(const nlohmann::json& j, const std::string& where) {
   SupportPlane plane;
   if (j.is_null() || !j.value("enabled", false)) return plane;
-  try {
-    plane.enabled = true;
-    const nlohmann::json& b = j.at("board");
-    plane.board.squares_x = b.at("squares_x").get<int>();
-    plane.board.squares_y = b.at("squares_y").get<int>();
-    plane.board.square_length_m = b.at("square_length_m").get<double>();
-    plane.board.marker_length_m = b.at("marker_length_m").get<double>();
-    plane.board.dictionary = b.at("dictionary").get<std::string>();
-    plane.paper_albedo = j.at("paper_albedo").get<double>();
-    plane.ink_albedo = j.at("ink_albedo").get<double>();
-    plane.paper_margin_m = j.at("paper_margin_m").get<double>();
-    const auto& t = j.at("table_albedo");
-    RELIT_REQUIRE(t.is_array() && t.size() == 3, where, ": support_plane.table_albedo must hold 3 values");
-    plane.table_albedo = {t[0].get<double>(), t[1].get<double>(), t[2].get<double>()};
-    plane.table_half_size_m = j.at("table_half_size_m").get<double>();
-  } catch (const nlohmann::json::exception& e) {
-    Fail(where, ": bad support_plane entry (", e.what(), "); rerun the relight cues step");
-  }
+  const std::string at = where + ": support_plane";
+  plane.enabled = true;
+  plane.board = BoardSpecFromJson(JsonField(j, "board", at), at + ".board");
+  plane.paper_albedo = JsonNumber(j, "paper_albedo", at);
+  plane.ink_albedo = JsonNumber(j, "ink_albedo", at);
+  plane.paper_margin_m = JsonNumber(j, "paper_margin_m", at);
+  plane.table_albedo = Vector3FromJson(JsonField(j, "table_albedo", at), at + ".table_albedo");
+  plane.table_half_size_m = JsonNumber(j, "table_half_size_m", at);
   plane.Check(where);
   return plane;
 }

@@ -41,40 +41,6 @@ float MixturePdf(const std::vector<CueBasis>& basis, const Vec3f& wo, const Vec3
   return sum / basis.size();
 }
 
-// One path vertex on a context surface with its own BSDF: a light sample
-// (MIS against that BSDF's pdf) added to every cue, then a direction from
-// the BSDF; every basis' throughput gets the same factor. *bsdf_pdf < 0 on
-// return when the path ends.
-template <typename Add>
-void TraceContextVertex(const Scene& scene, const BsdfParams& bsdf, const Hit& hit, const Vec3f& ng,
-                        const Frame& frame, const Vec3f& wo, int k_count, Rng& rng, Rgb* throughput,
-                        Vec3f* origin, Vec3f* direction, float* bsdf_pdf, const Add& add) {
-  LightSample ls;
-  float select_pdf = 0;
-  if (SampleOneLight(scene, hit.position, rng, &ls, &select_pdf) && ng.dot(ls.wi) > 0 &&
-      Unoccluded(scene, hit.position, ng, ls)) {
-    const Vec3f wi = frame.ToLocal(ls.wi);
-    if (wi.z() > 0) {
-      float scale = wi.z() / select_pdf;
-      if (!ls.delta) {
-        const float light_pdf = select_pdf * ls.pdf;
-        scale = wi.z() * PowerHeuristic(light_pdf, PdfBsdf(bsdf, wo, wi)) / light_pdf;
-      }
-      const Rgb contribution = EvalBsdf(bsdf, wo, wi) * ls.radiance * scale;
-      for (int k = 0; k < k_count; ++k) add(k, throughput[k] * contribution);
-    }
-  }
-  *bsdf_pdf = -1;
-  BsdfSample bs;
-  const float u_lobe = rng.Uniform();
-  if (!SampleBsdf(bsdf, wo, u_lobe, rng.Uniform2(), &bs)) return;
-  const Vec3f wi_world = frame.ToWorld(bs.wi);
-  if (ng.dot(wi_world) <= 0 || !(bs.pdf > 0)) return;
-  for (int k = 0; k < k_count; ++k) throughput[k] *= bs.weight;
-  *bsdf_pdf = bs.pdf;
-  *origin = OffsetOrigin(hit.position, ng, wi_world);
-  *direction = wi_world;
-}
 }  // namespace
 
 void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec3f& origin_in,
@@ -125,21 +91,24 @@ void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec
     const Vec3f wo = frame.ToLocal(-direction);
     if (wo.z() <= 0) return;
 
-    if (context) {
-      TraceContextVertex(scene, scene.material(hit.material).At(hit.uv), hit, ng, frame, wo, k_count, rng,
-                         throughput, &origin, &direction, &bsdf_pdf, add);
-      if (bsdf_pdf < 0) return;
-      if (bounce + 1 >= options.russian_roulette_depth) {
-        float max_throughput = 0;
-        for (int k = 0; k < k_count; ++k) max_throughput = std::max(max_throughput, throughput[k].maxCoeff());
-        const float q = std::min(0.95f, max_throughput);
-        if (rng.Uniform() >= q) return;
-        for (int k = 0; k < k_count; ++k) throughput[k] /= q;
+    // The BSDF each cue sees here: its basis material on the proxy; on a
+    // context object, the object's own material, the same for every cue.
+    BsdfParams own;
+    if (context) own = scene.material(hit.material).At(hit.uv);
+    auto sampling_pdf = [&](const Vec3f& wi) {
+      return context ? PdfBsdf(own, wo, wi) : MixturePdf(basis, wo, wi);
+    };
+    Rgb f[kMaxBasis];
+    auto eval_each = [&](const Vec3f& wi) {
+      if (context) {
+        const Rgb f_own = EvalBsdf(own, wo, wi);
+        for (int k = 0; k < k_count; ++k) f[k] = f_own;
+      } else {
+        for (int k = 0; k < k_count; ++k) f[k] = EvalBsdf(basis[k].bsdf, wo, wi);
       }
-      continue;
-    }
+    };
 
-    // One light sample, evaluated with every basis BSDF.
+    // One light sample, evaluated with every cue's BSDF.
     LightSample ls;
     float select_pdf = 0;
     if (SampleOneLight(scene, hit.position, rng, &ls, &select_pdf) && ng.dot(ls.wi) > 0 &&
@@ -149,26 +118,27 @@ void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec
         float scale = wi.z() / select_pdf;
         if (!ls.delta) {
           const float light_pdf = select_pdf * ls.pdf;
-          scale = wi.z() * PowerHeuristic(light_pdf, MixturePdf(basis, wo, wi)) / light_pdf;
+          scale = wi.z() * PowerHeuristic(light_pdf, sampling_pdf(wi)) / light_pdf;
         }
-        for (int k = 0; k < k_count; ++k) {
-          add(k, throughput[k] * EvalBsdf(basis[k].bsdf, wo, wi) * ls.radiance * scale);
-        }
+        eval_each(wi);
+        for (int k = 0; k < k_count; ++k) add(k, throughput[k] * f[k] * ls.radiance * scale);
       }
     }
 
-    // One direction from the mixture of the basis BSDFs.
-    const int chosen = std::min(static_cast<int>(rng.Uniform() * k_count), k_count - 1);
+    // One direction: from the mixture of the basis BSDFs, or from the context's own.
+    const BsdfParams& sampled =
+        context ? own : basis[std::min(static_cast<int>(rng.Uniform() * k_count), k_count - 1)].bsdf;
     BsdfSample bs;
     const float u_lobe = rng.Uniform();
-    if (!SampleBsdf(basis[chosen].bsdf, wo, u_lobe, rng.Uniform2(), &bs)) return;
+    if (!SampleBsdf(sampled, wo, u_lobe, rng.Uniform2(), &bs)) return;
     const Vec3f wi_world = frame.ToWorld(bs.wi);
     if (ng.dot(wi_world) <= 0) return;
-    const float mixture_pdf = MixturePdf(basis, wo, bs.wi);
+    const float mixture_pdf = sampling_pdf(bs.wi);
     if (!(mixture_pdf > 0)) return;
+    eval_each(bs.wi);
     float max_throughput = 0;
     for (int k = 0; k < k_count; ++k) {
-      throughput[k] *= EvalBsdf(basis[k].bsdf, wo, bs.wi) * (bs.wi.z() / mixture_pdf);
+      throughput[k] *= f[k] * (bs.wi.z() / mixture_pdf);
       max_throughput = std::max(max_throughput, throughput[k].maxCoeff());
     }
     bsdf_pdf = mixture_pdf;

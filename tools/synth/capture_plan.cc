@@ -19,6 +19,15 @@ enum Stream : uint64_t {
   kBoardClip, kEvalInterpolation,
 };
 
+// Smallest angle between a unit direction and any of `directions` (pi for none).
+double NearestAngleRad(const Eigen::Vector3d& direction, const std::vector<Eigen::Vector3d>& directions) {
+  double nearest = M_PI;
+  for (const Eigen::Vector3d& d : directions) {
+    nearest = std::min(nearest, std::acos(std::clamp(direction.dot(d), -1.0, 1.0)));
+  }
+  return nearest;
+}
+
 std::string Numbered(const std::string& prefix, int i) {
   char buffer[32];
   std::snprintf(buffer, sizeof(buffer), "%s_%02d", prefix.c_str(), i);
@@ -198,10 +207,7 @@ CapturePlan MakeCapturePlan(const SynthOptions& o, const SynthScene& scene) {
                                                      (0.25 + 0.5 * UniformFromState(&eval_state));
       const Eigen::Vector3d direction(std::cos(elevation) * std::cos(azimuth),
                                       std::cos(elevation) * std::sin(azimuth), std::sin(elevation));
-      double nearest = M_PI;
-      for (const Eigen::Vector3d& t : training_directions) {
-        nearest = std::min(nearest, std::acos(std::clamp(direction.dot(t), -1.0, 1.0)));
-      }
+      double nearest = NearestAngleRad(direction, training_directions);
       for (const EvalView& other : plan.eval_views) {  // spread the held-out views too
         const Eigen::Vector3d d = (other.cam_from_world.Inverse().translation - scene.target_world).normalized();
         if (std::acos(std::clamp(direction.dot(d), -1.0, 1.0)) < min_angle_rad) nearest = -1;
@@ -231,11 +237,7 @@ CapturePlan MakeCapturePlan(const SynthOptions& o, const SynthScene& scene) {
     view.set = "interpolation";
     view.cam_from_world = view_path.CamFromWorld(t_s);
     const Eigen::Vector3d direction = (view.cam_from_world.Inverse().translation - scene.target_world).normalized();
-    double nearest = M_PI;
-    for (const Eigen::Vector3d& t : training_directions) {
-      nearest = std::min(nearest, std::acos(std::clamp(direction.dot(t), -1.0, 1.0)));
-    }
-    view.min_angle_to_training_rad = nearest;
+    view.min_angle_to_training_rad = NearestAngleRad(direction, training_directions);
     plan.eval_views.push_back(view);
   }
 
