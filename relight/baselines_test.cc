@@ -62,7 +62,7 @@ class BaselinesTest : public ::testing::Test {
     const std::string config = dir_ + "/" + name + ".yaml";
     std::ofstream(config) << "cues: {samples_per_pixel: 4" << cues_extra << "}\n"
                           << "dataset: {holdout_every: 4}\npartitions: {layout: single}\n"
-                          << "model: {texture_resolution_px: 64, channels_per_basis: 4, ngf: 8, n_blocks: 2, "
+                          << "model: {variant: dnl, texture_resolution_px: 64, channels_per_basis: 4, ngf: 8, n_blocks: 2, "
                              "mask_ngf: 4, mask_n_blocks: 1}\n"
                           << "train: {steps: 100, checkpoint_every: 100, validate_every: 0, crop_px: 64, "
                              "learning_rate: 2e-3, seed: 5}\n"
@@ -219,8 +219,11 @@ TEST(BaselineOptions, UnknownInputsAndBasesAreErrors) {
     OptionsReader reader = OptionsReader::FromString(bad);
     EXPECT_THROW(options.Read(reader), Error) << bad;
   }
+  // The residual model regresses the 5 default cues: other cues need dnl.
+  OptionsReader residual = OptionsReader::FromString("cues: {bases: [ggx_0.13, lambert]}\n");
+  EXPECT_THROW(RelightOptions().Read(residual), Error);
   RelightOptions options;
-  OptionsReader reader = OptionsReader::FromString("cues: {bases: [ggx_0.13, lambert]}\n");
+  OptionsReader reader = OptionsReader::FromString("cues: {bases: [ggx_0.13, lambert]}\nmodel: {variant: dnl}\n");
   options.Read(reader);
   EXPECT_EQ(options.cues.Format().light_channels(), 6);
   EXPECT_EQ(options.cues.ToJson()["bases"], json({"ggx_0.13", "lambert"}));

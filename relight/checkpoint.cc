@@ -29,6 +29,9 @@ void WithTorchErrors(const std::filesystem::path& path, const char* what, Fn fn)
 // The format keys ("input", "bases") are not `model:` options: split them off.
 ModelOptions ModelOptionsFromJson(const nlohmann::json& j_in, const std::string& where) {
   nlohmann::json j = j_in, format = nlohmann::json::object();
+  // Checkpoints from before the variants hold the DNL model.
+  if (j.is_object() && !j.contains("variant")) j["variant"] = "dnl";
+  if (j.is_object() && !j.contains("object_window_margin_px")) j["object_window_margin_px"] = 0;
   for (const char* key : {"input", "bases"}) {
     if (j.is_object() && j.contains(key)) {
       format[key] = j[key];

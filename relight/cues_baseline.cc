@@ -59,17 +59,28 @@ void CuesOnlyBaseline::Accumulate(const Image& cue_frame, const Image& target_rg
     for (int x = 0; x < cue_frame.width(); ++x) {
       const float* p = cue_frame.pixel(x, y);
       if (matte.at(x, y, 0) < 0.5f || p[21] < 0.5f) continue;
-      const int texel = Texel(p[15], p[16]);
-      for (int c = 0; c < 3; ++c) {
-        double cue[kBases];
-        for (int k = 0; k < kBases; ++k) cue[k] = p[3 * k + c];
-        const double target = target_rgb.at(x, y, c);
-        Add(normals_[texel * 3 + c], cue, target);
-        Add(global_[c], cue, target);
-      }
-      ++pixels_used_;
+      const float target[3] = {target_rgb.at(x, y, 0), target_rgb.at(x, y, 1), target_rgb.at(x, y, 2)};
+      AccumulatePixel(p, p[15], p[16], target);
     }
   }
+}
+
+void CuesOnlyBaseline::AccumulatePixel(const float* cues, float u, float v, const float* target_rgb) {
+  solved_ = false;
+  const int texel = Texel(u, v);
+  for (int c = 0; c < 3; ++c) {
+    double cue[kBases];
+    for (int k = 0; k < kBases; ++k) cue[k] = cues[3 * k + c];
+    Add(normals_[texel * 3 + c], cue, target_rgb[c]);
+    Add(global_[c], cue, target_rgb[c]);
+  }
+  ++pixels_used_;
+}
+
+int64_t CuesOnlyBaseline::texels_seen() const {
+  int64_t seen = 0;
+  for (size_t texel = 0; texel * 3 < normals_.size(); ++texel) seen += normals_[texel * 3].count > 0 ? 1 : 0;
+  return seen;
 }
 
 void CuesOnlyBaseline::Solve() {

@@ -25,13 +25,21 @@ class CuesOnlyBaseline {
   // training frame: a cue frame (channels as cue_frames.h), the linear
   // target RGB and its matte.
   void Accumulate(const Image& cue_frame, const Image& target_rgb, const Image& matte);
+  // One foreground pixel: its 5 cues' RGB ([k * 3 + c]), texture coordinates
+  // and linear target RGB (for callers with their own frame layout).
+  void AccumulatePixel(const float* cues, float u, float v, const float* target_rgb);
   void Solve();
+  // After Solve(): the weights of texel row y, column x (row 0 at v = 1),
+  // [k * 3 + c], the texture layout of the model's cue regression.
+  const std::array<float, 15>& Weights(int x, int y) const { return weights_[static_cast<size_t>(y) * resolution_ + x]; }
 
   // Premultiplied linear RGBA for a cue frame; alpha = proxy coverage.
   Image Predict(const Image& cue_frame) const;
 
   int resolution() const { return resolution_; }
   int64_t pixels_used() const { return pixels_used_; }
+  // Texels with at least one training pixel.
+  int64_t texels_seen() const;
 
  private:
   static constexpr int kBases = 5;

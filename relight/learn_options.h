@@ -61,7 +61,20 @@ struct GeneratorOptions {
 };
 
 struct ModelOptions {
+  // "residual": the renderer network adds a log-space correction to a
+  // per-texel linear regression of the cues (texture channels 0..2 of each
+  // basis times that basis' cue RGB), fitted by least squares on the training
+  // frames before the first step; the mask network corrects the proxy's
+  // coverage. Both corrections start at zero, so the untrained model is the
+  // cues-only regression. "dnl": the network's output is the image and the
+  // mask net's the alpha, as in Deferred Neural Lighting.
+  std::string variant = "residual";
   int texture_resolution_px = 256;  // power of two
+  // > 0: the networks see only the window around the proxy's coverage
+  // (plus this margin) in training and rendering, instead of random crops
+  // (train.crop_px) and whole frames: instance norm then sees the same
+  // statistics in both. 0 = DNL's random crops and whole-frame renders.
+  int object_window_margin_px = 16;
   int channels_per_basis = 6;       // C; the texture has 5 C channels
   int mip_levels = 0;               // 0 = full chain
   int ngf = 32;                     // renderer width (DNL: 64)
@@ -87,6 +100,7 @@ struct ModelOptions {
   NeuralTextureOptions TextureOptions() const;
   GeneratorOptions RendererOptions() const;
   GeneratorOptions MaskOptions() const;
+  bool residual() const { return variant == "residual"; }
 
   void Read(OptionsReader& reader);
   void Check() const;
@@ -101,6 +115,9 @@ struct TrainOptions {
   // it must move faster than the networks (measured, docs/relight.md).
   // 0 = learning_rate.
   double texture_learning_rate = 2e-2;
+  // Adam rate of the residual model's cue-regression weights; 0 keeps the
+  // least-squares fit they start from.
+  double regression_learning_rate = 0.0;
   double beta1 = 0.9;
   double beta2 = 0.999;
   int batch_size = 1;           // frames per step (the data loader's business)

@@ -87,6 +87,8 @@ int Run(int argc, char** argv) {
   app.add_option("--frames", frames);
   app.add_option("--width", width);
   app.add_option("--steps", steps);
+  app.add_option("--variant", model.variant, "residual | dnl");
+  app.add_option("--window-margin", model.object_window_margin_px, "object window margin (0 = random crops)");
   app.add_option("--ngf", model.ngf);
   app.add_option("--blocks", model.n_blocks);
   app.add_option("--texture", model.texture_resolution_px);
@@ -96,6 +98,7 @@ int Run(int argc, char** argv) {
   app.add_option("--skip", model.input_skip);
   app.add_option("--init-spread", model.texture_init_spread);
   app.add_option("--texture-lr", training.optimizer.texture_learning_rate);
+  app.add_option("--regression-lr", training.optimizer.regression_learning_rate);
   app.add_option("--crop", training.optimizer.crop_px);
   app.add_option("--lr", training.optimizer.learning_rate);
   app.add_option("--seed", training.optimizer.seed);
@@ -165,9 +168,9 @@ int Run(int argc, char** argv) {
                                            ReadImage(dir + "/" + f.image), ReadImage(dir + "/" + f.matte)));
   }
   const ImageMetrics a = PoolMetrics(ours), b = PoolMetrics(theirs), c = PoolMetrics(train_fit);
-  std::printf("| %s skip %d spread %.2f texlr %.0e ngf %d blocks %d tex %d C %d crop %d lr %.0e steps %d | train %.0f s | held-out PSNR %.2f dB "
+  std::printf("| %s win %d %s skip %d spread %.2f texlr %.0e ngf %d blocks %d tex %d C %d crop %d lr %.0e steps %d | train %.0f s | held-out PSNR %.2f dB "
               "MAE %.4f alpha %.4f | train-frame PSNR %.2f | cues-only %.2f dB MAE %.4f |\n",
-              model.norm.c_str(), model.input_skip ? 1 : 0, model.texture_init_spread, training.optimizer.texture_learning_rate, model.ngf, model.n_blocks, model.texture_resolution_px, model.channels_per_basis,
+              model.variant.c_str(), model.object_window_margin_px, model.norm.c_str(), model.input_skip ? 1 : 0, model.texture_init_spread, training.optimizer.texture_learning_rate, model.ngf, model.n_blocks, model.texture_resolution_px, model.channels_per_basis,
               training.optimizer.crop_px, training.optimizer.learning_rate, steps, train_s, a.psnr_db, a.mae,
               a.alpha_mae, c.psnr_db, b.psnr_db, b.mae);
   fs::remove_all(dir);

@@ -85,6 +85,28 @@ Batch RandomCrop(const Batch& batch, int crop_px, at::Generator& generator) {
   return crop;
 }
 
+Batch ObjectWindow(const Batch& batch, int margin_px, int64_t* top_out, int64_t* left_out) {
+  const int64_t h = batch.height(), w = batch.width();
+  const auto covered = (batch.coverage > 0).any(0).any(0);  // [H, W]
+  const auto rows = torch::nonzero(covered.any(1)), cols = torch::nonzero(covered.any(0));
+  int64_t top = 0, left = 0, bottom = h, right = w;
+  if (rows.numel() > 0) {
+    auto align = [](int64_t lo, int64_t hi, int64_t size, int64_t* start, int64_t* end) {
+      *start = std::max<int64_t>(0, lo / 4 * 4);
+      *end = std::min<int64_t>(size, (hi + 3) / 4 * 4);
+      while (*end - *start < 8 && (*start > 0 || *end < size)) {  // the generator needs >= 8
+        if (*start > 0) *start -= 4;
+        if (*end - *start < 8 && *end < size) *end = std::min<int64_t>(size, *end + 4);
+      }
+    };
+    align(rows.min().item<int64_t>() - margin_px, rows.max().item<int64_t>() + 1 + margin_px, h, &top, &bottom);
+    align(cols.min().item<int64_t>() - margin_px, cols.max().item<int64_t>() + 1 + margin_px, w, &left, &right);
+  }
+  if (top_out) *top_out = top;
+  if (left_out) *left_out = left;
+  return CropBatch(batch, top, left, bottom - top, right - left);
+}
+
 DnlModelImpl::DnlModelImpl(const ModelOptions& options)
     : options_(options),
       device_(ResolveDevice(options.device)),
@@ -93,6 +115,16 @@ DnlModelImpl::DnlModelImpl(const ModelOptions& options)
   texture_ = register_module("texture", NeuralTexture(options_.TextureOptions()));
   renderer_ = register_module("renderer", ResnetGenerator(options_.RendererOptions()));
   mask_net_ = register_module("mask", ResnetGenerator(options_.MaskOptions()));
+  if (options_.residual()) {
+    // Weights of the cue regression, [k * 3 + c] per texel, set by the warm
+    // start (warm_start.h); gates at 0 so the corrections start as none
+    // without zeroing any network layer (ReZero): Adam's first, sign-like
+    // steps on a zeroed last layer move every output pixel the same way.
+    const int64_t r = options_.texture_resolution_px;
+    regression_ = register_parameter("regression", torch::zeros({1, 3 * kBasisCount, r, r}));
+    renderer_gate_ = register_parameter("renderer_gate", torch::zeros({1}));
+    mask_gate_ = register_parameter("mask_gate", torch::zeros({1}));
+  }
   to(device_);
 }
 
@@ -106,7 +138,20 @@ ModelOutput DnlModelImpl::Forward(const Batch& batch_in) {
   const auto texture = texture_->forward(batch.uv, batch.uv_derivatives, batch.coverage);
   const auto input = options_.format.is_sh() ? BuildShNetworkInput(texture, batch.cues, encoding_.max_radiance())
                                              : BuildNetworkInput(texture, batch.cues, encoding_.max_radiance());
-  return {renderer_->forward(input), mask_net_->forward(texture)};
+  if (!options_.residual()) return {renderer_->forward(input), mask_net_->forward(texture)};
+  // Corrections on top of the cue regression and of the proxy's coverage
+  // (logit of a coverage kept inside [1e-3, 1 - 1e-3]).
+  const auto weights = SampleNearest(regression_, batch.uv, batch.coverage);
+  const auto regression = encoding_.Encode(CueRegression(weights, batch.cues));
+  const auto coverage = batch.coverage.clamp(1e-3, 1.0 - 1e-3);
+  const auto coverage_logit = torch::log(coverage) - torch::log1p(-coverage);
+  return {regression + renderer_gate_ * renderer_->forward(input),
+          coverage_logit + mask_gate_ * mask_net_->forward(texture)};
+}
+
+std::vector<torch::Tensor> DnlModelImpl::gates() const {
+  if (!options_.residual()) return {};
+  return {renderer_gate_, mask_gate_};
 }
 
 Losses DnlModelImpl::Loss(const ModelOutput& output, const Batch& batch_in, double mask_loss_weight) const {
@@ -123,7 +168,23 @@ Losses DnlModelImpl::Loss(const ModelOutput& output, const Batch& batch_in, doub
 
 torch::Tensor DnlModelImpl::Render(const Batch& batch) {
   torch::NoGradGuard no_grad;
-  const ModelOutput output = Forward(batch);
+  ModelOutput output;
+  if (options_.object_window_margin_px > 0) {
+    int64_t top = 0, left = 0;
+    const Batch window = ObjectWindow(batch, options_.object_window_margin_px, &top, &left);
+    const ModelOutput inside = Forward(window);
+    const auto options = inside.rgb_log.options();
+    // Outside the window: no radiance and no coverage (logit of 1e-3, what
+    // the residual variant reads there), the networks' outputs inside.
+    output.rgb_log = torch::full({batch.batch_size(), 3, batch.height(), batch.width()}, -1.0, options);
+    output.mask_logit = torch::full({batch.batch_size(), 1, batch.height(), batch.width()},
+                                    std::log(1e-3 / (1 - 1e-3)), options);
+    output.rgb_log.slice(2, top, top + window.height()).slice(3, left, left + window.width()).copy_(inside.rgb_log);
+    output.mask_logit.slice(2, top, top + window.height()).slice(3, left, left + window.width())
+        .copy_(inside.mask_logit);
+  } else {
+    output = Forward(batch);
+  }
   const auto alpha = torch::sigmoid(output.mask_logit);
   return torch::cat({encoding_.Decode(output.rgb_log) * alpha, alpha}, 1);
 }
@@ -141,6 +202,7 @@ Trainer::Trainer(const ModelOptions& model_options, const TrainOptions& train_op
   std::vector<torch::Tensor> networks;
   for (const auto& p : model_->renderer()->parameters()) networks.push_back(p);
   for (const auto& p : model_->mask_net()->parameters()) networks.push_back(p);
+  for (const auto& p : model_->gates()) networks.push_back(p);
   const double texture_lr =
       train_options_.texture_learning_rate > 0 ? train_options_.texture_learning_rate : train_options_.learning_rate;
   const auto betas = std::make_tuple(train_options_.beta1, train_options_.beta2);
@@ -149,6 +211,17 @@ Trainer::Trainer(const ModelOptions& model_options, const TrainOptions& train_op
                       std::make_unique<torch::optim::AdamOptions>(torch::optim::AdamOptions(texture_lr).betas(betas)));
   groups.emplace_back(networks, std::make_unique<torch::optim::AdamOptions>(
                                     torch::optim::AdamOptions(train_options_.learning_rate).betas(betas)));
+  if (model_->options().residual()) {
+    // The least-squares weights are already the regression's optimum for
+    // squared error; a rate of 0 keeps them (no gradient at all).
+    if (train_options_.regression_learning_rate > 0) {
+      groups.emplace_back(std::vector<torch::Tensor>{model_->regression()},
+                          std::make_unique<torch::optim::AdamOptions>(
+                              torch::optim::AdamOptions(train_options_.regression_learning_rate).betas(betas)));
+    } else {
+      model_->regression().requires_grad_(false);
+    }
+  }
   optimizer_ = std::make_unique<torch::optim::Adam>(
       std::move(groups), torch::optim::AdamOptions(train_options_.learning_rate).betas(betas));
 }
@@ -156,7 +229,8 @@ Trainer::Trainer(const ModelOptions& model_options, const TrainOptions& train_op
 Losses Trainer::Step(const Batch& batch) {
   batch.Check(/*need_targets=*/true);
   model_->train();
-  const Batch crop = RandomCrop(batch, train_options_.crop_px, generator_);
+  const int margin_px = model_->options().object_window_margin_px;
+  const Batch crop = margin_px > 0 ? ObjectWindow(batch, margin_px) : RandomCrop(batch, train_options_.crop_px, generator_);
   optimizer_->zero_grad();
   const ModelOutput output = model_->Forward(crop);
   const Losses losses = model_->Loss(output, crop, train_options_.mask_loss_weight);

@@ -4,6 +4,13 @@
 //   rgb_log  = Renderer(LogEncode(texture x tiled cues))             [B, 3, H, W]
 //   mask     = MaskNet(texture)  (a logit)                           [B, 1, H, W]
 //   RGBA     = (Decode(rgb_log) * sigmoid(mask), sigmoid(mask))      premultiplied
+// That is variant "dnl". Variant "residual" (the default) corrects a
+// per-texel linear regression of the cues and the proxy's coverage instead:
+//   rgb_log  = LogEncode(sum_k w_k(texel) cue_k) + g_r Renderer(...)
+//   mask     = logit(coverage) + g_m MaskNet(texture)
+// with w the least-squares fit of the training frames (warm_start.h) and the
+// gates g_r, g_m learnt from 0, so training starts from the cues-only
+// baseline's image and the proxy's alpha.
 //
 // Loss (per batch):
 //   rgb  = sum(matte * |rgb_log - LogEncode(target_rgb)|) / (3 sum(matte))
@@ -64,6 +71,12 @@ Batch CropBatch(const Batch& batch, int64_t top, int64_t left, int64_t height, i
 // the batch unchanged when crop_px is 0 or not smaller than the frame.
 Batch RandomCrop(const Batch& batch, int crop_px, at::Generator& generator);
 
+// The window of `batch` around the proxy's coverage (any frame of the
+// batch), widened by margin_px on each side and aligned to multiples of 4
+// inside the frame; the whole batch when nothing is covered. `top`/`left`
+// receive the window's offset.
+Batch ObjectWindow(const Batch& batch, int margin_px, int64_t* top = nullptr, int64_t* left = nullptr);
+
 struct ModelOutput {
   torch::Tensor rgb_log;     // [B, 3, H, W] log-encoded RGB, in [-1, 1]
   torch::Tensor mask_logit;  // [B, 1, H, W]
@@ -81,7 +94,9 @@ class DnlModelImpl : public torch::nn::Module {
   ModelOutput Forward(const Batch& batch);
   Losses Loss(const ModelOutput& output, const Batch& batch, double mask_loss_weight = 1.0) const;
   // Premultiplied linear RGBA [B, 4, H, W]: decoded RGB x alpha, alpha =
-  // sigmoid(mask logit). No gradients.
+  // sigmoid(mask logit). No gradients. With object_window_margin_px > 0 the
+  // networks see only the object's window, as in training; outside it the
+  // image is empty.
   torch::Tensor Render(const Batch& batch);
 
   const ModelOptions& options() const { return options_; }
@@ -90,6 +105,10 @@ class DnlModelImpl : public torch::nn::Module {
   NeuralTexture& texture() { return texture_; }
   ResnetGenerator& renderer() { return renderer_; }
   ResnetGenerator& mask_net() { return mask_net_; }
+  // Residual variant only (undefined for dnl): the cue regression's per-texel
+  // weights [1, 15, R, R] and the two correction gates.
+  torch::Tensor& regression() { return regression_; }
+  std::vector<torch::Tensor> gates() const;
 
  private:
   ModelOptions options_;
@@ -98,6 +117,7 @@ class DnlModelImpl : public torch::nn::Module {
   NeuralTexture texture_{nullptr};
   ResnetGenerator renderer_{nullptr};
   ResnetGenerator mask_net_{nullptr};
+  torch::Tensor regression_, renderer_gate_, mask_gate_;
 };
 TORCH_MODULE(DnlModel);
 

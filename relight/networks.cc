@@ -125,6 +125,14 @@ torch::Tensor BuildNetworkInput(const torch::Tensor& sampled_texture, const torc
   return LogEncoding(max_radiance).Encode(sampled_texture * tiled);
 }
 
+torch::Tensor CueRegression(const torch::Tensor& weights, const torch::Tensor& cues) {
+  RELIT_REQUIRE(cues.dim() == 4 && cues.size(1) % 3 == 0 && weights.sizes() == cues.sizes(),
+                "cue regression: weights and cues must both be [B, 3 N, H, W], got ", weights.sizes(), " and ",
+                cues.sizes());
+  const auto products = weights * cues.to(weights.dtype());
+  return products.view({cues.size(0), cues.size(1) / 3, 3, cues.size(2), cues.size(3)}).sum(1);
+}
+
 torch::Tensor BuildShNetworkInput(const torch::Tensor& sampled_texture, const torch::Tensor& sh,
                                   double max_radiance) {
   constexpr int64_t kDirections = 18, kLight = 21;  // shv + shl, + level RGB

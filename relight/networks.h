@@ -66,6 +66,12 @@ TORCH_MODULE(ResnetGenerator);
 torch::Tensor BuildNetworkInput(const torch::Tensor& sampled_texture, const torch::Tensor& cues,
                                 double max_radiance);
 
+// The per-texel linear regression of the cues (model variant "residual"):
+// sum over bases i of weights[3 i + c] times cues[3 i + c], c = 0, 1, 2, from
+// `weights` and `cues`, both [B, 3 N, H, W]. Returns linear RGB [B, 3, H, W]
+// (may be negative).
+torch::Tensor CueRegression(const torch::Tensor& weights, const torch::Tensor& cues);
+
 // Network input of the sh baseline (sh_encoding.h) from `sampled_texture`
 // [B, 21 + C, H, W] and the sh light channels `sh` [B, 21, H, W]:
 //   [0, 9)    texture 0..8   x view SH (shv)       DNR's view encoding

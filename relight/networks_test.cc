@@ -210,5 +210,42 @@ TEST(CropTest, CropsEveryPerPixelTensorConsistently) {
   EXPECT_EQ(RandomCrop(batch, 0, gen_a).height(), h);
 }
 
+// The object window: the coverage's bounding box plus the margin, aligned to
+// 4 pixels and clipped to the frame; the whole frame when nothing is covered.
+TEST(CropTest, ObjectWindowFramesTheCoveredPixels) {
+  Batch batch;
+  const int64_t h = 40, w = 64;
+  batch.uv = torch::zeros({1, h, w, 2});
+  batch.uv_derivatives = torch::zeros({1, h, w, 4});
+  batch.cues = torch::zeros({1, 15, h, w});
+  batch.coverage = torch::zeros({1, 1, h, w});
+  EXPECT_EQ(ObjectWindow(batch, 4).width(), w);
+  batch.coverage.slice(2, 13, 19).slice(3, 30, 35).fill_(1.0);  // rows 13..18, columns 30..34
+  int64_t top = -1, left = -1;
+  const Batch window = ObjectWindow(batch, 4, &top, &left);
+  EXPECT_EQ(top, 8);       // 13 - 4 = 9, down to a multiple of 4
+  EXPECT_EQ(left, 24);     // 30 - 4 = 26 -> 24
+  EXPECT_EQ(window.height(), 16);  // rows 8 .. 24 (19 + 4 = 23, up to 24)
+  EXPECT_EQ(window.width(), 16);   // columns 24 .. 40 (35 + 4 = 39 -> 40)
+  EXPECT_EQ(window.coverage.sum().item<float>(), 30.0f);
+  int64_t edge_top = -1;
+  batch.coverage.zero_();
+  batch.coverage.slice(2, 0, 2).slice(3, 0, 2).fill_(1.0);
+  const Batch corner = ObjectWindow(batch, 0, &edge_top);
+  EXPECT_EQ(edge_top, 0);
+  EXPECT_EQ(corner.height(), 8);  // the generator's minimum
+  EXPECT_EQ(corner.width(), 8);
+}
+
+TEST(NetworkInputTest, CueRegressionSumsWeightTimesCuePerColour) {
+  const auto weights = torch::arange(15, torch::kFloat).view({1, 15, 1, 1}).expand({2, 15, 3, 4});
+  const auto cues = torch::full({2, 15, 3, 4}, 0.5f);
+  const auto rgb = CueRegression(weights, cues);
+  ASSERT_EQ(rgb.sizes(), (std::vector<int64_t>{2, 3, 3, 4}));
+  // Colour c: 0.5 * (c + (3 + c) + (6 + c) + (9 + c) + (12 + c)) = 0.5 * (30 + 5 c).
+  for (int c = 0; c < 3; ++c) EXPECT_FLOAT_EQ(rgb[1][c][2][3].item<float>(), 0.5f * (30 + 5 * c));
+  EXPECT_THROW(CueRegression(weights.slice(1, 0, 12), cues), Error);
+}
+
 }  // namespace
 }  // namespace relit::relight

@@ -47,6 +47,14 @@ std::vector<torch::Tensor> BuildMipChain(const torch::Tensor& level0, int levels
 torch::Tensor SampleMipChain(const std::vector<torch::Tensor>& chain, const torch::Tensor& uv,
                              const torch::Tensor& lod);
 
+// `texels` [1, S, R, R] read at the nearest texel of level 0, no filtering:
+// [B, S, H, W] times `coverage` [B, 1, H, W] (uncovered pixels read zero).
+// Texel (floor(u R), floor((1 - v) R)), as the cues-only baseline indexes
+// (cues_baseline.h): the residual model's least-squares weights are read
+// exactly as they were fitted. Bilinear or mip filtering would blend
+// neighbouring texels' weights, which only agree on the cues each texel saw.
+torch::Tensor SampleNearest(const torch::Tensor& texels, const torch::Tensor& uv, const torch::Tensor& coverage);
+
 class NeuralTextureImpl : public torch::nn::Module {
  public:
   explicit NeuralTextureImpl(const NeuralTextureOptions& options);

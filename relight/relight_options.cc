@@ -117,7 +117,9 @@ GeneratorOptions ModelOptions::MaskOptions() const {
 }
 
 void ModelOptions::Read(OptionsReader& reader) {
+  reader.Read("variant", &variant);
   reader.ReadRange("texture_resolution_px", &texture_resolution_px, 1, 8192);
+  reader.ReadRange("object_window_margin_px", &object_window_margin_px, 0, 4096);
   reader.ReadRange("channels_per_basis", &channels_per_basis, 1, 64);
   reader.ReadRange("mip_levels", &mip_levels, 0, 14);
   reader.ReadRange("ngf", &ngf, 1, 512);
@@ -143,10 +145,17 @@ void ModelOptions::Check() const {
                 "model max_radiance must be finite and >= 0 (0 = set from the data), got ", max_radiance);
   RELIT_REQUIRE(device == "cpu" || device == "cuda" || device == "auto",
                 "model device must be cpu, cuda or auto, got '", device, "'");
+  RELIT_REQUIRE(variant == "residual" || variant == "dnl", "model variant must be residual or dnl, got '", variant,
+                "'");
+  RELIT_REQUIRE(!residual() || format.is_default(),
+                "model variant residual starts from a least-squares regression of the 5 default radiance cues: "
+                "it needs the default cues (no cues.input: sh, no other cues.bases); use model variant: dnl");
 }
 
 nlohmann::json ModelOptions::ToJson() const {
-  nlohmann::json j = {{"texture_resolution_px", texture_resolution_px},
+  nlohmann::json j = {{"variant", variant},
+          {"texture_resolution_px", texture_resolution_px},
+          {"object_window_margin_px", object_window_margin_px},
           {"channels_per_basis", channels_per_basis},
           {"mip_levels", mip_levels},
           {"ngf", ngf},
@@ -166,6 +175,7 @@ nlohmann::json ModelOptions::ToJson() const {
 void TrainOptions::Read(OptionsReader& reader) {
   reader.Read("learning_rate", &learning_rate);
   reader.Read("texture_learning_rate", &texture_learning_rate);
+  reader.Read("regression_learning_rate", &regression_learning_rate);
   reader.Read("beta1", &beta1);
   reader.Read("beta2", &beta2);
   reader.ReadRange("batch_size", &batch_size, 1, 1024);
@@ -181,6 +191,9 @@ void TrainOptions::Check() const {
   RELIT_REQUIRE(learning_rate > 0 && learning_rate < 1, "learning_rate must be in (0, 1), got ", learning_rate);
   RELIT_REQUIRE(texture_learning_rate >= 0 && texture_learning_rate < 1,
                 "texture_learning_rate must be in [0, 1) (0 = learning_rate), got ", texture_learning_rate);
+  RELIT_REQUIRE(regression_learning_rate >= 0 && regression_learning_rate < 1,
+                "regression_learning_rate must be in [0, 1) (0 = keep the least-squares fit), got ",
+                regression_learning_rate);
   RELIT_REQUIRE(beta1 >= 0 && beta1 < 1 && beta2 >= 0 && beta2 < 1, "Adam beta1/beta2 must be in [0, 1)");
   RELIT_REQUIRE(batch_size >= 1, "batch_size must be >= 1, got ", batch_size);
   RELIT_REQUIRE(crop_px == 0 || (crop_px >= 8 && crop_px % 4 == 0),
@@ -190,7 +203,8 @@ void TrainOptions::Check() const {
 }
 
 nlohmann::json TrainOptions::ToJson() const {
-  return {{"learning_rate", learning_rate}, {"texture_learning_rate", texture_learning_rate}, {"beta1", beta1}, {"beta2", beta2},
+  return {{"learning_rate", learning_rate}, {"texture_learning_rate", texture_learning_rate},
+          {"regression_learning_rate", regression_learning_rate}, {"beta1", beta1}, {"beta2", beta2},
           {"batch_size", batch_size}, {"crop_px", crop_px}, {"mask_loss_weight", mask_loss_weight},
           {"seed", seed}, {"threads", threads}};
 }
@@ -358,6 +372,8 @@ void RelightOptions::Read(OptionsReader& reader) {
   }
   reader.Read("log_level", &log_level);
   reader.Finish();
+  model.format = cues.Format();  // the model reads what the cues step renders
+  model.Check();                 // e.g. variant residual with sh cues, refused before any step runs
 }
 
 void RelightOptions::Check() const {

@@ -20,11 +20,15 @@
 #include "relight/metrics.h"
 #include "relight/plan.h"
 #include "relight/train_loop.h"
+#include "relight/warm_start.h"
 
 namespace relit::relight {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+
+// The cues-only baseline's pull towards the global fit (eval's default).
+constexpr double kWarmStartRidge = 4.0;
 
 
 
@@ -75,6 +79,7 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
                             {"plan", HashFile(plan_path)}};
   const fs::path fingerprint_path = dir / "fingerprint.json";
   std::unique_ptr<Trainer> trainer;
+  bool fresh = false;
   if (fs::exists(checkpoint_dir / "checkpoint.json") && fs::exists(fingerprint_path)) {
     std::ifstream in(fingerprint_path);
     const json previous = json::parse(in, nullptr, false);
@@ -91,6 +96,7 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
     fs::remove(log_path);
     AtomicWriteFile(fingerprint_path, fingerprint.dump(2));
     trainer = std::make_unique<Trainer>(model_options, options.optimizer);
+    fresh = true;
   } else {
     TruncateLog(log_path, trainer->step());
   }
@@ -110,6 +116,15 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
       const size_t pick = part.validation_frames.size() * (2 * i + 1) / (2 * count);  // evenly spread
       validation.push_back(LoadPlanFrame(workspace, plan.frames[part.validation_frames[pick]], model_options.format));
     }
+  }
+
+  if (fresh && model_options.residual()) {
+    auto timer = record.Time("warm_start");
+    const WarmStartResult start = WarmStartCueRegression(trainer->model(), frames, kWarmStartRidge);
+    record.Set("warm_start", json{{"pixels", start.pixels}, {"texels_seen", start.texels_seen},
+                                  {"texels", start.texels}, {"ridge", kWarmStartRidge}});
+    spdlog::info("train: partition {}: cue regression fitted on {} pixels ({} of {} texels seen)", partition,
+                 start.pixels, start.texels_seen, start.texels);
   }
 
   FrameOrder order(static_cast<int>(frames.size()), options.optimizer.seed);

@@ -11,6 +11,7 @@
 #include "core/options.h"
 #include "relight/checkpoint.h"
 #include "relight/model.h"
+#include "relight/warm_start.h"
 #include "relight/test_scene.h"
 
 namespace relit::relight {
@@ -54,6 +55,8 @@ class TempDir {
 TEST(TrainTest, OverfitsATinySyntheticProblem) {
   const std::vector<Batch> frames = Frames(4, 32, 21);
   ModelOptions model_options = testing::TinyModelOptions();
+  model_options.variant = "dnl";  // DNL's networks alone, from random texels
+  model_options.object_window_margin_px = 0;
   model_options.max_radiance = MaxRadiance(frames);
   TrainOptions train_options;
   train_options.crop_px = 0;
@@ -98,6 +101,8 @@ TEST(TrainTest, ShModelOverfitsATinyProblem) {
   for (int f = 0; f < 4; ++f) frames.push_back(testing::SyntheticShFrame(material, 32, f, 42));
   ModelOptions model_options = testing::TinyModelOptions();
   model_options.format.input = CueFormat::kSh;
+  model_options.variant = "dnl";
+  model_options.object_window_margin_px = 0;
   model_options.max_radiance = MaxRadiance(frames);
   TrainOptions train_options;
   train_options.crop_px = 0;
@@ -133,6 +138,7 @@ TEST(CheckpointTest, RecordsTheInputFormatAndRefusesAnother) {
   frames[0].cues = frames[0].cues.slice(1, 0, 3).contiguous();  // Lambert only
   ModelOptions model_options = testing::TinyModelOptions();
   model_options.format.bases = {"lambert"};
+  model_options.variant = "dnl";  // the residual variant needs the 5 default cues
   model_options.max_radiance = MaxRadiance(frames);
   TrainOptions train_options;
   train_options.crop_px = 0;
@@ -222,9 +228,87 @@ TEST(CheckpointTest, ResumingReproducesTheUninterruptedRun) {
   EXPECT_THROW(LoadTrainer(temp.path() / "missing"), Error);
 }
 
+// The residual variant's warm start on frames whose targets are exactly a
+// per-texel linear model of the cues: the least-squares fit recovers it, and
+// the step-0 model renders the targets with the proxy's coverage as alpha.
+TEST(ResidualModelTest, WarmStartReproducesALinearCueModelAndTheCoverage) {
+  std::vector<Batch> frames = Frames(12, 32, 31);
+  ModelOptions model_options = testing::TinyModelOptions();
+  model_options.texture_resolution_px = 8;
+  torch::manual_seed(7);
+  const auto weights = torch::rand({1, 15, 8, 8});
+  for (Batch& f : frames) {
+    f.target_rgb = CueRegression(SampleNearest(weights, f.uv, f.coverage), f.cues).clamp_min(0.0);
+  }
+  model_options.max_radiance = MaxRadiance(frames);
+  DnlModel model(model_options);
+  // A weak ridge: the synthetic blobs make the 5 cues nearly collinear.
+  const WarmStartResult fit = WarmStartCueRegression(model, frames, 1e-4);
+  std::printf("warm start: %lld pixels, %lld of %lld texels seen\n", static_cast<long long>(fit.pixels),
+              static_cast<long long>(fit.texels_seen), static_cast<long long>(fit.texels));
+  EXPECT_GT(fit.pixels, 12 * 500);
+  for (const Batch& f : frames) {
+    const auto rgba = model->Render(f);
+    const auto inside = f.coverage > 0.5;
+    const auto error = (rgba.slice(1, 0, 3) - f.target_rgb).abs().masked_select(inside.expand({1, 3, 32, 32}));
+    const double scale = f.target_rgb.masked_select(inside.expand({1, 3, 32, 32})).mean().item<double>();
+    EXPECT_LT(error.mean().item<double>(), 0.01 * scale);
+    EXPECT_LT((rgba.slice(1, 3, 4) - f.coverage).abs().max().item<double>(), 2e-3);
+  }
+  // Texels seen by many pixels hold the true weights.
+  const auto seen = (model->regression() - weights).abs().amax(1).flatten();
+  EXPECT_LT(std::get<0>(seen.sort()).slice(0, 0, fit.texels_seen / 2).max().item<double>(), 0.02);
+}
+
+// From the warm start, training the corrections lowers the loss on the
+// nonlinear (power 0.8) tiny problem, which no linear cue model fits.
+TEST(ResidualModelTest, CorrectionsImproveOnTheCueRegression) {
+  const std::vector<Batch> frames = Frames(4, 32, 21);
+  ModelOptions model_options = testing::TinyModelOptions();
+  model_options.max_radiance = MaxRadiance(frames);
+  TrainOptions train_options;
+  train_options.learning_rate = 2e-3;
+  train_options.seed = 3;
+  train_options.threads = 1;
+  Trainer trainer(model_options, train_options);
+  WarmStartCueRegression(trainer.model(), frames, 4.0);
+  auto rgb_loss = [&] {
+    double sum = 0;
+    torch::NoGradGuard no_grad;
+    for (const Batch& f : frames) sum += trainer.model()->Loss(trainer.model()->Forward(f), f).rgb.item<double>();
+    return sum / frames.size();
+  };
+  const double before = rgb_loss();
+  for (int s = 0; s < 150; ++s) trainer.Step(frames[s % frames.size()]);
+  const double after = rgb_loss();
+  std::printf("residual rgb loss %.4f -> %.4f (x%.1f)\n", before, after, before / after);
+  EXPECT_GT(before / after, 1.5);
+}
+
+// Checkpoints written before the variants existed hold DNL models.
+TEST(CheckpointTest, OlderCheckpointsLoadAsDnl) {
+  TempDir dir;
+  ModelOptions model_options = testing::TinyModelOptions();
+  model_options.variant = "dnl";
+  model_options.object_window_margin_px = 0;
+  Trainer trainer(model_options, TrainOptions());
+  const fs::path checkpoint = dir.path() / "checkpoint";
+  SaveCheckpoint(checkpoint, trainer);
+  const fs::path info_path = checkpoint / "checkpoint.json";
+  nlohmann::json info = nlohmann::json::parse(std::ifstream(info_path));
+  info["model_options"].erase("variant");
+  info["model_options"].erase("object_window_margin_px");
+  std::ofstream(info_path) << info.dump(2);
+  const DnlModel loaded = LoadModel(checkpoint);
+  EXPECT_EQ(loaded->options().variant, "dnl");
+  EXPECT_EQ(loaded->options().object_window_margin_px, 0);
+}
+
 TEST(CheckpointTest, OptionsRoundTripThroughYaml) {
   ModelOptions model_options;
   model_options.ngf = 48;
+  model_options.variant = "dnl";
+  model_options.object_window_margin_px = 0;
   model_options.upsampling = "resize_conv";
   model_options.max_radiance = 12.5;
   model_options.device = "auto";
@@ -236,6 +320,8 @@ TEST(CheckpointTest, OptionsRoundTripThroughYaml) {
   EXPECT_THROW(ModelOptions().Read(typo), Error);
   OptionsReader bad_crop = OptionsReader::FromString("crop_px: 30\n");
   EXPECT_THROW(TrainOptions().Read(bad_crop), Error);
+  OptionsReader bad_variant = OptionsReader::FromString("variant: resnet\n");
+  EXPECT_THROW(ModelOptions().Read(bad_variant), Error);
   EXPECT_THROW(ResolveDevice("tpu"), Error);
   if (!torch::cuda::is_available()) {
     EXPECT_THROW(ResolveDevice("cuda"), Error);

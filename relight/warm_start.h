@@ -1,0 +1,27 @@
+// The residual model's starting point: its cue regression (texture channels
+// 0..2 of each basis, model.h) set to the per-texel least-squares fit of the
+// training frames, the cues-only baseline's solution (cues_baseline.h) at the
+// texture's own resolution. Training then starts from what the cues alone
+// explain instead of from random texels, and the networks learn only what
+// the regression misses.
+#pragma once
+
+#include <vector>
+
+#include "relight/model.h"
+
+namespace relit::relight {
+
+struct WarmStartResult {
+  int64_t pixels = 0;          // foreground pixels fitted
+  int64_t texels_seen = 0;     // texels with at least one pixel
+  int64_t texels = 0;          // all texels of level 0
+};
+
+// Fits on every pixel with matte >= 0.5 and proxy coverage >= 0.5 of
+// `frames` (Batch tensors with targets) and writes the weights into
+// `model`'s texture. `ridge` pulls texels seen by few pixels towards the
+// global fit (in pixels' worth). Requires the residual variant.
+WarmStartResult WarmStartCueRegression(DnlModel& model, const std::vector<Batch>& frames, double ridge);
+
+}  // namespace relit::relight
