@@ -13,6 +13,7 @@
 #include "calib/undistort.h"
 #include "core/error.h"
 #include "core/json_file.h"
+#include "core/run_record.h"
 #include "core/workspace.h"
 #include "reconstruct/mesh_cleanup.h"
 #include "reconstruct/point_surface.h"
@@ -194,7 +195,7 @@ json ProxyBreakdown(const std::string& workspace, const render::TriangleMesh& gt
   rows.back()["handles_cut"] = report.handles_cut;
   const ProxyFile proxy = ReadProxyFile((ws / "reconstruct" / "proxy.json").string());
   rows.push_back(measure.MeshRow("workspace proxy", render::LoadMesh((ws / proxy.mesh).string())));
-  return {{"steps", rows}, {"samples", samples}, {"seconds", Seconds(start)}};
+  return {{"steps", rows}, {"samples", samples}, {"seconds", SecondsSince(start)}};
 }
 
 void WriteTruthCameraWorkspace(const std::string& workspace, const std::string& synth, const std::string& out) {

@@ -39,10 +39,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-double Seconds(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 void PrepareWorkspace(const std::string& dir, int frames, int width_px, bool support_plane, int target_spp,
                       int cue_spp) {
   if (fs::exists(fs::path(dir) / "relight/plan/plan.json")) return;
@@ -132,7 +128,7 @@ int Run(int argc, char** argv) {
   const auto start = std::chrono::steady_clock::now();
   RunRecord record("bench");
   RunTrainStage(dir, 0, model, training, true, record);
-  const double train_s = Seconds(start);
+  const double train_s = SecondsSince(start);
 
   CuesOnlyBaseline baseline(model.texture_resolution_px);
   for (int index : plan.partitions[0].train_frames) {
