@@ -39,6 +39,7 @@
 #include "bench/bench_util.h"
 #include "bench/reconstruct_breakdown.h"
 #include "calib/undistort.h"
+#include "core/capture_file.h"
 #include "core/error.h"
 #include "core/image.h"
 #include "core/json_file.h"
@@ -230,8 +231,9 @@ class MatteFrames {
         cameras_(ReadCamerasFile((ws_ / "calib" / "cameras.json").string())),
         undistorter_(cameras_.devices.at("view"), cameras_.undistorted_view),
         matting_(StageMattingOptions(ws_)), mattes_(proxy.mattes.size()) {
-    const json capture = ReadJsonFile((ws_ / "capture" / "capture.json").string(), "capture", 1);
-    for (const json& f : capture.at("view_frames")) source_frame_[f.at("index")] = f.at("source_frame");
+    for (const CaptureFrame& f : ReadCaptureFile(CaptureFilePath(ws_.string())).view) {
+      source_frame_[f.index] = f.source_frame;
+    }
     for (const json& f : report.value("frames", json::array())) {
       if (f.contains("band_px")) band_px_[f.at("view_frame")] = f.at("band_px");
     }

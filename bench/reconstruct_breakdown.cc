@@ -11,6 +11,7 @@
 
 #include "bench/bench_util.h"
 #include "calib/undistort.h"
+#include "core/capture_file.h"
 #include "core/error.h"
 #include "core/json_file.h"
 #include "core/run_record.h"
@@ -202,9 +203,7 @@ void WriteTruthCameraWorkspace(const std::string& workspace, const std::string& 
   const fs::path ws(workspace), dst(out);
   RELIT_REQUIRE(!fs::exists(dst / "calib"), out, "/calib exists: pick a new folder");
   const json truth = ReadJsonFile((fs::path(synth) / "truth.json").string(), "synth_truth", 1);
-  const json capture = ReadJsonFile((ws / "capture" / "capture.json").string(), "capture", 1);
-  std::map<int, const json*> capture_frame;
-  for (const json& f : capture.at("view_frames")) capture_frame[f.at("index")] = &f;
+  const CaptureFile capture = ReadCaptureFile(CaptureFilePath(ws.string()));
   CamerasFile cameras = ReadCamerasFile((ws / "calib" / "cameras.json").string());
   const Intrinsics lens = IntrinsicsFromJson(truth.at("phones").at("view").at("intrinsics"), "truth view lens");
   cameras.devices["view"] = lens;
@@ -213,13 +212,13 @@ void WriteTruthCameraWorkspace(const std::string& workspace, const std::string& 
   std::vector<CalibratedFrame> frames;
   for (const CalibratedFrame& f : cameras.frames) {
     if (f.device != "view" || f.image_8bit.empty()) continue;
-    const int index = std::stoi(f.name.substr(f.name.find('/') + 1));
-    const json& c = *capture_frame.at(index);
-    const json& t = truth.at("videos").at("view").at("frames").at(c.at("source_frame").get<int>());
+    const CaptureFrame* c = capture.Find(f.name);
+    RELIT_REQUIRE(c != nullptr, "calib frame ", f.name, " is not in ", CaptureFilePath(ws.string()));
+    const json& t = truth.at("videos").at("view").at("frames").at(c->source_frame);
     CalibratedFrame frame = f;
     frame.cam_from_world = Rigid3FromJson(t.at("cam_from_world"), f.name);
     frame.image_linear.clear();
-    undistorter.RunSrgb((ws / "capture" / c.at("image").get<std::string>()).string(), (dst / f.image_8bit).string());
+    undistorter.RunSrgb((ws / c->image).string(), (dst / f.image_8bit).string());
     frames.push_back(frame);
   }
   cameras.frames = frames;
