@@ -74,13 +74,7 @@ class EvalTest : public ::testing::Test {
     truth_ = WriteTruth(dir_ + "/capture", true);
     std::printf("workspace + cues + truth: %.1f s\n", SecondsSince(start));
     start = std::chrono::steady_clock::now();
-    ModelOptions model;
-    model.texture_resolution_px = 128;
-    model.channels_per_basis = 4;
-    model.ngf = 16;
-    model.n_blocks = 3;
-    model.mask_ngf = 8;
-    model.mask_n_blocks = 2;
+    ModelOptions model = testing::SmallModel();
     TrainStageOptions train;
     train.steps = kSteps;
     train.checkpoint_every = kSteps;

@@ -70,13 +70,7 @@ class InteropTest : public ::testing::Test {
     if (bake_) return;
     auto start = std::chrono::steady_clock::now();
     RunRecord record("test");
-    ModelOptions model;
-    model.texture_resolution_px = 128;
-    model.channels_per_basis = 4;
-    model.ngf = 16;
-    model.n_blocks = 3;
-    model.mask_ngf = 8;
-    model.mask_n_blocks = 2;
+    ModelOptions model = testing::SmallModel();
     TrainStageOptions train;
     train.steps = 60;
     train.checkpoint_every = 60;

@@ -66,13 +66,7 @@ int Run(int argc, char** argv) {
   CLI::App app{"held-out quality of the DNL model vs the cues-only baseline"};
   std::string dir = (fs::temp_directory_path() / "relit_learning_bench").string();
   int frames = 24, width = 160, steps = 300;
-  ModelOptions model;
-  model.texture_resolution_px = 128;
-  model.channels_per_basis = 4;
-  model.ngf = 16;
-  model.n_blocks = 3;
-  model.mask_ngf = 8;
-  model.mask_n_blocks = 2;
+  ModelOptions model = testing::SmallModel();
   TrainStageOptions training;
   training.checkpoint_every = 1000000;
   training.validate_every = 0;

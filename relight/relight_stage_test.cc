@@ -30,16 +30,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-ModelOptions SmallModel() {
-  ModelOptions m;
-  m.texture_resolution_px = 128;
-  m.channels_per_basis = 4;
-  m.ngf = 16;
-  m.n_blocks = 3;
-  m.mask_ngf = 8;
-  m.mask_n_blocks = 2;
-  return m;
-}
+using testing::SmallModel;
 
 TrainStageOptions SmallTraining(int steps) {
   TrainStageOptions t;
