@@ -1,27 +1,16 @@
-// Small helpers shared by the benchmarks: process CPU time, the machine's
-// load average and peak resident memory (Linux /proc).
+// Small helpers shared by the benchmarks: the machine's load average and
+// peak resident memory (Linux /proc). Wall and CPU time: SecondsSince and
+// ProcessCpuSeconds in core/run_record.h.
 #pragma once
 
-#include <chrono>
 #include <cstdio>
 #include <ctime>
 #include <fstream>
 #include <string>
 
+#include "core/run_record.h"
+
 namespace relit::bench {
-
-// Wall-clock seconds since `start`.
-inline double Seconds(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-// CPU time of the whole process (all threads), seconds. On a shared machine
-// it is less sensitive than wall time to other processes competing for cores.
-inline double ProcessCpuSeconds() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
 
 // "1.23 0.98 0.77" from /proc/loadavg: timings on a busy machine are not comparable.
 inline std::string LoadAverage() {

@@ -23,6 +23,7 @@
 #include "calib/truth_accuracy.h"
 #include "core/board.h"
 #include "core/camera.h"
+#include "core/capture_file.h"
 #include "core/error.h"
 #include "core/json_file.h"
 
@@ -89,19 +90,19 @@ struct FrameSample {
 };
 
 std::vector<FrameSample> SampleFrames(const std::string& workspace, const json& truth, int max_frames) {
-  const json capture = ReadJsonFile(workspace + "/capture/capture.json", "capture", 1);
+  const CaptureFile capture = ReadCaptureFile(CaptureFilePath(workspace));
   std::vector<FrameSample> samples;
   for (const std::string device : {"view", "light"}) {
-    const json& frames = capture[device + "_frames"];
+    const std::vector<CaptureFrame>& frames = device == "view" ? capture.view : capture.light;
     const int count = static_cast<int>(frames.size());
     const int take = max_frames > 0 ? std::min(count, max_frames) : count;
     const Intrinsics lens = IntrinsicsFromJson(truth["phones"][device]["intrinsics"]);
     for (int k = 0; k < take; ++k) {
-      const json& f = frames[static_cast<size_t>(k) * count / take];
+      const CaptureFrame& f = frames[static_cast<size_t>(k) * count / take];
       FrameSample s;
       s.device = device;
-      s.path = workspace + "/capture/" + f["image"].get<std::string>();
-      const json& t = truth["videos"][device]["frames"].at(f["source_frame"].get<int>());
+      s.path = workspace + "/" + f.image;
+      const json& t = truth["videos"][device]["frames"].at(f.source_frame);
       const cv::Size size = cv::imread(s.path, cv::IMREAD_UNCHANGED).size();
       RELIT_REQUIRE(size.width > 0, "cannot read ", s.path);
       s.truth_camera = Camera(lens.Scaled(size.width, size.height), Rigid3FromJson(t["cam_from_world"]));

@@ -23,6 +23,7 @@
 #include "core/error.h"
 #include "core/main_wrapper.h"
 #include "core/render/cue_renderer.h"
+#include "core/run_record.h"
 #include "relight/cue_frames.h"
 
 namespace relit::bench {
@@ -81,7 +82,7 @@ SizeResult RunSize(const Options& o, BenchSceneSpec spec, const render::Triangle
   scene.AddInstance(mesh, scene.AddMaterial(render::Material::Lambert(Rgb::Constant(0.5f))),
                     spec.cow_world_from_object, 1);
   scene.Commit();
-  r.build_seconds = Seconds(build_start);
+  r.build_seconds = SecondsSince(build_start);
 
   const Camera camera = spec.MakeCamera();
   const relight::CueLight light =
@@ -100,13 +101,13 @@ SizeResult RunSize(const Options& o, BenchSceneSpec spec, const render::Triangle
     const double cpu_start = ProcessCpuSeconds();
     const auto start = std::chrono::steady_clock::now();
     r.frame = relight::RenderCueFrame(scene, camera, light, settings);
-    const double seconds = Seconds(start), cpu_seconds = ProcessCpuSeconds() - cpu_start;
+    const double seconds = SecondsSince(start), cpu_seconds = ProcessCpuSeconds() - cpu_start;
     if (i == 0) r.peak_mib = ProcStatusMiB("VmHWM");
     if (r.render_seconds < 0 || seconds < r.render_seconds) r.render_seconds = seconds;
     if (r.render_cpu_seconds < 0 || cpu_seconds < r.render_cpu_seconds) r.render_cpu_seconds = cpu_seconds;
     const auto write_start = std::chrono::steady_clock::now();
     WriteImage(exr, r.frame);  // half floats, as relit-relight cues writes them
-    const double write_seconds = Seconds(write_start);
+    const double write_seconds = SecondsSince(write_start);
     if (r.write_seconds < 0 || write_seconds < r.write_seconds) r.write_seconds = write_seconds;
   }
   settings.seed = o.seed + 1;

@@ -399,7 +399,7 @@ int main(int argc, char** argv) {
         failure = std::string("unexpected ") + e.what();
       }
       g_running = false;
-      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const double seconds = relit::SecondsSince(start);
       c.total_s += seconds;
       c.max_s = std::max(c.max_s, seconds);
       if (!failure.empty()) {

@@ -21,6 +21,7 @@
 #include "bench/raw_embree.h"
 #include "core/error.h"
 #include "core/main_wrapper.h"
+#include "core/run_record.h"
 
 namespace relit::bench {
 namespace {
@@ -60,7 +61,7 @@ SceneResult RunRelit(const Options& o, const BenchSceneSpec& spec, const render:
   const auto build_start = std::chrono::steady_clock::now();
   render::Scene scene;
   BuildRelitScene(spec, cow, material, &scene);
-  r.build_seconds = Seconds(build_start);
+  r.build_seconds = SecondsSince(build_start);
 
   const Camera camera = spec.MakeCamera();
   render::RenderOptions options;
@@ -73,7 +74,7 @@ SceneResult RunRelit(const Options& o, const BenchSceneSpec& spec, const render:
     const double cpu_start = ProcessCpuSeconds();
     const auto start = std::chrono::steady_clock::now();
     rendered = render::RenderImage(scene, camera, options);
-    const double seconds = Seconds(start), cpu_seconds = ProcessCpuSeconds() - cpu_start;
+    const double seconds = SecondsSince(start), cpu_seconds = ProcessCpuSeconds() - cpu_start;
     if (r.render_seconds < 0 || seconds < r.render_seconds) r.render_seconds = seconds;
     if (r.render_cpu_seconds < 0 || cpu_seconds < r.render_cpu_seconds) r.render_cpu_seconds = cpu_seconds;
   }

@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/error.h"
+#include "core/run_record.h"
 
 namespace relit::bench {
 
@@ -129,7 +130,7 @@ RawTraceResult RawEmbreeScene::Trace(const std::vector<RecordedRay>& rays, int r
       }
       hits += local_hits;
     });
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds = SecondsSince(start);
     const double cpu_seconds = ProcessCpuSeconds() - cpu_start;
     if (result.seconds < 0 || seconds < result.seconds) result.seconds = seconds;
     if (result.cpu_seconds < 0 || cpu_seconds < result.cpu_seconds) result.cpu_seconds = cpu_seconds;

@@ -39,6 +39,7 @@
 #include "bench/bench_util.h"
 #include "bench/reconstruct_breakdown.h"
 #include "calib/undistort.h"
+#include "core/capture_file.h"
 #include "core/error.h"
 #include "core/image.h"
 #include "core/json_file.h"
@@ -46,6 +47,7 @@
 #include "core/progress.h"
 #include "core/render/mesh.h"
 #include "core/render/scene.h"
+#include "core/run_record.h"
 #include "core/workspace.h"
 #include "reconstruct/closed_form_matting.h"
 #include "reconstruct/mesh_cleanup.h"
@@ -96,7 +98,7 @@ json ProxyAccuracy(const BenchOptions& o, const json& truth, const render::Trian
   const double diagonal = gt.Bounds().diagonal().norm();
   const auto start = std::chrono::steady_clock::now();
   const double chamfer = reconstruct::SymmetricChamferDistance(proxy, gt, o.chamfer_samples);
-  const double chamfer_s = Seconds(start);
+  const double chamfer_s = SecondsSince(start);
 
   // Board triangles: below the board plane, or lying on it away from the
   // object's base (GT vertices within 1 cm of the board).
@@ -229,8 +231,9 @@ class MatteFrames {
         cameras_(ReadCamerasFile((ws_ / "calib" / "cameras.json").string())),
         undistorter_(cameras_.devices.at("view"), cameras_.undistorted_view),
         matting_(StageMattingOptions(ws_)), mattes_(proxy.mattes.size()) {
-    const json capture = ReadJsonFile((ws_ / "capture" / "capture.json").string(), "capture", 1);
-    for (const json& f : capture.at("view_frames")) source_frame_[f.at("index")] = f.at("source_frame");
+    for (const CaptureFrame& f : ReadCaptureFile(CaptureFilePath(ws_.string())).view) {
+      source_frame_[f.index] = f.source_frame;
+    }
     for (const json& f : report.value("frames", json::array())) {
       if (f.contains("band_px")) band_px_[f.at("view_frame")] = f.at("band_px");
     }
@@ -300,13 +303,13 @@ json MatteComparison(const BenchOptions& o, const MatteFrames& matte_frames, con
     const cv::Mat silhouette = reconstruct::ProjectSilhouette(scene, m.camera);
     cv::Mat binary_alpha;
     silhouette.convertTo(binary_alpha, CV_32F, 1.0 / 255.0);
-    binary.Add(binary_alpha, m.gt, m.unknown, Seconds(start));
+    binary.Add(binary_alpha, m.gt, m.unknown, SecondsSince(start));
 
     // relit's matte as the stage wrote it; the solve is repeated for its time.
     reconstruct::MatteStats stats;
     start = std::chrono::steady_clock::now();
     const cv::Mat resolved = reconstruct::SolveClosedFormMatte(m.colour, m.trimap, binary_alpha, matting, &stats);
-    const double relit_s = Seconds(start);
+    const double relit_s = SecondsSince(start);
     relit.Add(m.stored, m.gt, m.unknown, relit_s);
     const double resolve_difference = cv::norm(resolved, m.stored, cv::NORM_INF);
 
@@ -317,7 +320,7 @@ json MatteComparison(const BenchOptions& o, const MatteFrames& matte_frames, con
       cv::Mat result, alpha;
       start = std::chrono::steady_clock::now();
       cv::alphamat::infoFlow(bgr, m.trimap, result);
-      const double seconds = Seconds(start);
+      const double seconds = SecondsSince(start);
       result.convertTo(alpha, CV_32F, result.depth() == CV_8U ? 1.0 / 255.0 : 1.0);
       cv::min(cv::max(alpha, 0.0), 1.0, alpha);
       infoflow.Add(alpha, m.gt, m.unknown, seconds);

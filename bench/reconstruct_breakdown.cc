@@ -11,8 +11,10 @@
 
 #include "bench/bench_util.h"
 #include "calib/undistort.h"
+#include "core/capture_file.h"
 #include "core/error.h"
 #include "core/json_file.h"
+#include "core/run_record.h"
 #include "core/workspace.h"
 #include "reconstruct/mesh_cleanup.h"
 #include "reconstruct/point_surface.h"
@@ -194,16 +196,14 @@ json ProxyBreakdown(const std::string& workspace, const render::TriangleMesh& gt
   rows.back()["handles_cut"] = report.handles_cut;
   const ProxyFile proxy = ReadProxyFile((ws / "reconstruct" / "proxy.json").string());
   rows.push_back(measure.MeshRow("workspace proxy", render::LoadMesh((ws / proxy.mesh).string())));
-  return {{"steps", rows}, {"samples", samples}, {"seconds", Seconds(start)}};
+  return {{"steps", rows}, {"samples", samples}, {"seconds", SecondsSince(start)}};
 }
 
 void WriteTruthCameraWorkspace(const std::string& workspace, const std::string& synth, const std::string& out) {
   const fs::path ws(workspace), dst(out);
   RELIT_REQUIRE(!fs::exists(dst / "calib"), out, "/calib exists: pick a new folder");
   const json truth = ReadJsonFile((fs::path(synth) / "truth.json").string(), "synth_truth", 1);
-  const json capture = ReadJsonFile((ws / "capture" / "capture.json").string(), "capture", 1);
-  std::map<int, const json*> capture_frame;
-  for (const json& f : capture.at("view_frames")) capture_frame[f.at("index")] = &f;
+  const CaptureFile capture = ReadCaptureFile(CaptureFilePath(ws.string()));
   CamerasFile cameras = ReadCamerasFile((ws / "calib" / "cameras.json").string());
   const Intrinsics lens = IntrinsicsFromJson(truth.at("phones").at("view").at("intrinsics"), "truth view lens");
   cameras.devices["view"] = lens;
@@ -212,13 +212,13 @@ void WriteTruthCameraWorkspace(const std::string& workspace, const std::string& 
   std::vector<CalibratedFrame> frames;
   for (const CalibratedFrame& f : cameras.frames) {
     if (f.device != "view" || f.image_8bit.empty()) continue;
-    const int index = std::stoi(f.name.substr(f.name.find('/') + 1));
-    const json& c = *capture_frame.at(index);
-    const json& t = truth.at("videos").at("view").at("frames").at(c.at("source_frame").get<int>());
+    const CaptureFrame* c = capture.Find(f.name);
+    RELIT_REQUIRE(c != nullptr, "calib frame ", f.name, " is not in ", CaptureFilePath(ws.string()));
+    const json& t = truth.at("videos").at("view").at("frames").at(c->source_frame);
     CalibratedFrame frame = f;
     frame.cam_from_world = Rigid3FromJson(t.at("cam_from_world"), f.name);
     frame.image_linear.clear();
-    undistorter.RunSrgb((ws / "capture" / c.at("image").get<std::string>()).string(), (dst / f.image_8bit).string());
+    undistorter.RunSrgb((ws / c->image).string(), (dst / f.image_8bit).string());
     frames.push_back(frame);
   }
   cameras.frames = frames;

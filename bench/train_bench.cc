@@ -130,12 +130,12 @@ double RunBare(const Options& o, const relight::ModelOptions& model, const Batch
   for (int s = 0; s < kWarmupSteps; ++s) trainer.Step(batch).total.item<double>();
   const auto start = std::chrono::steady_clock::now();
   for (int s = 0; s < o.steps; ++s) trainer.Step(batch).total.item<double>();
-  const double seconds = Seconds(start) / o.steps;
+  const double seconds = SecondsSince(start) / o.steps;
   if (checkpoint_seconds != nullptr) {
     const fs::path dir = fs::path(o.dir) / "bench_checkpoint";
     const auto ckpt_start = std::chrono::steady_clock::now();
     relight::SaveCheckpoint(dir, trainer);
-    *checkpoint_seconds = Seconds(ckpt_start);
+    *checkpoint_seconds = SecondsSince(ckpt_start);
     fs::remove_all(dir);
   }
   return seconds;
@@ -174,7 +174,7 @@ int Probe(const Options& o) {
   RELIT_REQUIRE(ResetPeakRss(), "cannot reset the peak RSS (/proc/self/clear_refs)");
   const auto start = std::chrono::steady_clock::now();
   trainer.Step(b).total.item<double>();
-  const double seconds = Seconds(start);
+  const double seconds = SecondsSince(start);
   std::printf("RELIT_PROBE rss_before_mib=%.1f peak_mib=%.1f seconds=%.2f params=%lld\n", before,
               ProcStatusMiB("VmHWM"), seconds, static_cast<long long>(params));
   return 0;
@@ -275,7 +275,7 @@ int Run(int argc, char** argv) {
   const int crops = 500;
   const auto crop_start = std::chrono::steady_clock::now();
   for (int i = 0; i < crops; ++i) relight::RandomCrop(frame, train_defaults.crop_px, generator);
-  const double crop_seconds = Seconds(crop_start) / crops;
+  const double crop_seconds = SecondsSince(crop_start) / crops;
 
   const double load_s = last.timings.value("load_frames", 0.0), validate_s = last.timings.value("validate", 0.0);
   const relight::TrainStageOptions cadence;

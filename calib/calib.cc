@@ -29,12 +29,6 @@ namespace fs = std::filesystem;
 constexpr const char* kReportKind = "calib_report";
 constexpr int kReportVersion = 1;
 
-// Detaches the log file from the output folder when the run ends either way.
-struct LogFileScope {
-  spdlog::level::level_enum level;
-  ~LogFileScope() { InitLogging("", level); }
-};
-
 BundleOptions ToBundleOptions(const CalibOptions& o, bool with_points) {
   BundleOptions b;
   b.huber_px = o.refine.huber_px;
@@ -72,8 +66,7 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
   const CaptureInput input = ReadCaptureFile(options.workspace);
   AtomicDir out(workspace / "calib", OutputGuard{"relit-calib", options.force, {}}, "--workspace");
   const fs::path root = out.path();
-  LogFileScope log_scope{level};
-  InitLogging((root / "calib.log").string(), level);
+  LogFileScope log_scope((root / "calib.log").string(), level);
   RunRecord record("relit-calib");
   record.SetOptions(options.ToJson());
   record.AddInput("capture", (workspace / "capture" / "capture.json").string());

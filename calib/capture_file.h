@@ -1,22 +1,17 @@
-// A small reader of the capture stage's capture/capture.json
-// (relit.capture/1): the kept frames of both phones with their times on the
-// common clock and the paths of their images. Only the fields calib needs.
+// What calib needs of the capture stage's capture/capture.json
+// (relit.capture/1, read by core/capture_file.h): the kept frames of both
+// phones with their times on the common clock and the paths of their
+// images, checked for what calib relies on.
 #pragma once
 
 #include <string>
 #include <vector>
 
+#include "core/capture_file.h"
+
 namespace relit::calib {
 
-struct CaptureFrame {
-  std::string device;        // "view", "light" or "geometry" (the optional geometry pass)
-  int index = 0;             // position in the capture's list (file NNNNNN)
-  std::string name;          // "<device>/NNNNNN": lexical order = time per device
-  double time_s = 0;         // common clock (phone V's); geometry pass: its own clock (photos: index)
-  int source_frame = -1;     // frame index in the original video
-  std::string image;         // 8-bit sRGB copy, path relative to the workspace
-  std::string linear;        // linear half EXR (phone V only), relative to the workspace
-};
+using relit::CaptureFrame;
 
 struct CaptureInput {
   std::vector<CaptureFrame> view;

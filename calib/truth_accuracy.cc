@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "core/camera.h"
+#include "core/capture_file.h"
 #include "core/error.h"
 #include "core/json_file.h"
 #include "core/workspace.h"
@@ -35,27 +36,17 @@ BoardSpec BoardSpecFromTruth(const json& truth) {
 }
 
 CalibAccuracy MeasureCalibAccuracy(const std::string& workspace, const json& truth) {
-  const json capture = ReadJsonFile(workspace + "/capture/capture.json", "capture", 1);
+  const CaptureFile capture = ReadCaptureFile(CaptureFilePath(workspace));
   const CamerasFile cameras = ReadCamerasFile(workspace + "/calib/cameras.json");
   const LightsFile lights = ReadLightsFile(workspace + "/calib/lights.json");
 
-  // Frame name ("view/000012") -> index of the frame in its rendered video.
-  std::map<std::string, int> source_frame;
-  for (const std::string device : {"view", "light", "geometry"}) {
-    const std::string key = device + "_frames";
-    if (!capture.contains(key)) continue;
-    for (const json& f : capture[key]) {
-      char name[64];
-      std::snprintf(name, sizeof(name), "%s/%06d", device.c_str(), f["index"].get<int>());
-      source_frame[name] = f["source_frame"];
-    }
-  }
+  // A calib frame's truth, through the index of the frame in its rendered video.
   auto truth_frame = [&](const std::string& device, const std::string& name) -> const json& {
-    const auto it = source_frame.find(name);
-    RELIT_REQUIRE(it != source_frame.end(), "calib frame ", name, " is not in ", workspace,
+    const CaptureFrame* frame = capture.Find(name);
+    RELIT_REQUIRE(frame != nullptr, "calib frame ", name, " is not in ", workspace,
                   "/capture/capture.json: was calib run on this capture?");
     RELIT_REQUIRE(truth["videos"].contains(device), "truth.json has no video '", device, "'");
-    return truth["videos"][device]["frames"].at(it->second);
+    return truth["videos"][device]["frames"].at(frame->source_frame);
   };
 
   std::map<std::string, std::vector<double>> position_mm, rotation_deg;

@@ -30,12 +30,6 @@ constexpr const char* kViewRole = "phone V video (--view)";
 constexpr const char* kLightRole = "phone L video (--light)";
 constexpr const char* kGeometryRole = "geometry-pass video (--geometry)";
 
-// Detaches the log file from the output folder when the run ends either way.
-struct LogFileScope {
-  spdlog::level::level_enum level;
-  ~LogFileScope() { InitLogging("", level); }
-};
-
 std::string RejectionSummary(const std::vector<Candidate>& frames) {
   std::map<std::string, int> counts;
   for (const Candidate& c : frames) counts[c.rejection.empty() ? "kept" : c.rejection]++;
@@ -179,8 +173,7 @@ CaptureSummary RunCaptureImpl(const CaptureOptions& options) {
   AtomicDir out(options.out, OutputGuard{"relit-capture", options.force,
                                          {options.view, options.light, options.geometry}});
   const fs::path root = out.path();
-  LogFileScope log_scope{level};
-  InitLogging((root / "capture.log").string(), level);
+  LogFileScope log_scope((root / "capture.log").string(), level);
   RunRecord record("relit-capture");
   record.SetOptions(options.ToJson());
   record.AddInput("view", options.view);
@@ -331,7 +324,7 @@ CaptureSummary RunCaptureImpl(const CaptureOptions& options) {
   summary.view_frames_decoded = view.frames_decoded;
   summary.view_frames_kept = static_cast<int>(view_sources.size());
   summary.light_frames_kept = static_cast<int>(light_sources.size());
-  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.seconds = SecondsSince(start);
   spdlog::info("relit-capture: wrote {} ({} phone V frames, {} phone L frames, {} geometry "
                "frames, offset {:+.6f} s) in {:.1f} s", options.out, summary.view_frames_kept,
                summary.light_frames_kept, summary.geometry_frames_kept, summary.offset_s,

@@ -2,7 +2,7 @@
 //
 // Conventions (see docs/conventions.md):
 // - World frame: the ChArUco board frame converted to +Z up (away from the
-//   table), metres. See board_frame.h for world_from_board.
+//   table), metres. See WorldFromBoard in board.h.
 // - Camera frame: OpenCV, x right, y down, z forward (optical axis), metres.
 // - Pixels: OpenCV convention, the centre of the top-left pixel is (0, 0);
 //   pixel (i, j) covers [i-0.5, i+0.5] x [j-0.5, j+0.5].

@@ -87,6 +87,17 @@ void InitLogging(const std::string& log_file, spdlog::level::level_enum level) {
   state.file_sink = file_sink;
 }
 
+LogFileScope::LogFileScope(const std::string& log_file, spdlog::level::level_enum level) : level_(level) {
+  try {
+    InitLogging(log_file, level);
+  } catch (...) {
+    InitLogging("", level);
+    throw;
+  }
+}
+
+LogFileScope::~LogFileScope() { InitLogging("", level_); }
+
 void SetVerbosity(spdlog::level::level_enum level) {
   const std::shared_ptr<spdlog::logger> logger = spdlog::default_logger();
   logger->set_level(level);

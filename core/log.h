@@ -22,6 +22,20 @@ namespace relit {
 void InitLogging(const std::string& log_file = "",
                  spdlog::level::level_enum level = spdlog::level::info);
 
+// Logs to `log_file` (and stderr) until the scope ends, then to stderr only,
+// so a stage's log file is closed before its output folder is moved into
+// place or deleted, whether the run ends normally or by an exception.
+class LogFileScope {
+ public:
+  LogFileScope(const std::string& log_file, spdlog::level::level_enum level);
+  ~LogFileScope();
+  LogFileScope(const LogFileScope&) = delete;
+  LogFileScope& operator=(const LogFileScope&) = delete;
+
+ private:
+  spdlog::level::level_enum level_;
+};
+
 // Changes the level of the logger and of all its outputs.
 void SetVerbosity(spdlog::level::level_enum level);
 

@@ -79,6 +79,20 @@ TEST_F(LogTest, UnwritableLogFileIsAnError) {
   EXPECT_THROW(InitLogging((root_ / "blocker" / "run.log").string()), Error);
 }
 
+TEST_F(LogTest, LogFileScopeDetachesTheFileWhenItEnds) {
+  const fs::path file = root_ / "stage.log";
+  testing::internal::CaptureStderr();
+  {
+    LogFileScope scope(file.string(), spdlog::level::info);
+    spdlog::info("inside the scope");
+  }
+  spdlog::info("after the scope");
+  testing::internal::GetCapturedStderr();
+  const std::string log = ReadText(file);
+  EXPECT_NE(log.find("inside the scope"), std::string::npos) << log;
+  EXPECT_EQ(log.find("after the scope"), std::string::npos) << log;
+}
+
 TEST(LogLevel, Parse) {
   EXPECT_EQ(ParseLogLevel("debug"), spdlog::level::debug);
   EXPECT_EQ(ParseLogLevel("error"), spdlog::level::err);

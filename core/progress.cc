@@ -9,6 +9,8 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "core/run_record.h"
+
 namespace relit {
 
 namespace {
@@ -135,7 +137,7 @@ Progress::~Progress() {
 }
 
 double Progress::ElapsedSeconds() const {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  return SecondsSince(start_);
 }
 
 void Progress::Advance(int64_t n) {

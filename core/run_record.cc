@@ -1,5 +1,6 @@
 #include "core/run_record.h"
 
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <climits>
@@ -35,6 +36,17 @@ std::string HostName() {
 }
 
 }  // namespace
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+double ProcessCpuSeconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
+  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
 
 const char* RelitVersion() { return RELIT_VERSION; }
 
@@ -108,8 +120,7 @@ RunRecord::Scope::~Scope() {
 
 double RunRecord::Scope::Stop() {
   if (record_ == nullptr) return 0.0;
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  const double seconds = SecondsSince(start_);
   record_->AddTiming(step_, seconds);
   record_ = nullptr;
   return seconds;
@@ -121,8 +132,7 @@ nlohmann::json RunRecord::ToJson() const {
   record["tool"] = tool_;
   record["version"] = RelitVersion();
   record["start_time_utc"] = start_time_utc_;
-  record["total_s"] =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  record["total_s"] = SecondsSince(start_);
   return record;
 }
 

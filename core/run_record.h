@@ -28,6 +28,14 @@ namespace relit {
 // The project version this library was built from (CMake PROJECT_VERSION).
 const char* RelitVersion();
 
+// Wall-clock seconds since `start` (steady clock).
+double SecondsSince(std::chrono::steady_clock::time_point start);
+
+// User + system CPU seconds of this process so far, all threads (getrusage):
+// the training budget of train.json (`process_cpu_s`), and on a shared
+// machine less sensitive than wall time to other processes.
+double ProcessCpuSeconds();
+
 class RunRecord {
  public:
   static constexpr const char* kKind = "run";

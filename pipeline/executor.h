@@ -97,4 +97,8 @@ class SlurmExecutor : public Executor {
 // `*err` when given, else is discarded).
 int RunCapture(const std::string& command, std::string* out, std::string* err = nullptr);
 
+// Where RunCapture keeps a command's stderr while it runs: a mkstemp
+// template in $TMPDIR, or in /tmp when TMPDIR is unset or not a directory.
+std::string CommandStderrTemplate();
+
 }  // namespace relit::pipeline

@@ -8,6 +8,8 @@
 #include <unistd.h>
 
 #include <cstring>
+#include <filesystem>
+#include <system_error>
 #include <thread>
 
 #include "core/error.h"
@@ -126,9 +128,19 @@ std::string LocalExecutor::JobIdOf(const std::string& step) const {
   return "";
 }
 
+std::string CommandStderrTemplate() {
+  // temp_directory_path() reads TMPDIR (POSIX); it fails when TMPDIR names
+  // no directory, and /tmp is then what every other tool would use.
+  std::error_code ec;
+  std::filesystem::path dir = std::filesystem::temp_directory_path(ec);
+  if (ec || dir.empty()) dir = "/tmp";
+  return (dir / "relit-cmd-XXXXXX").string();
+}
+
 int RunCapture(const std::string& command, std::string* out, std::string* err) {
   std::string full = command;
-  char err_path[] = "/tmp/relit-cmd-XXXXXX";
+  std::string err_template = CommandStderrTemplate();
+  char* err_path = err_template.data();  // mkstemp fills in the XXXXXX
   int err_fd = -1;
   if (err) {
     err_fd = ::mkstemp(err_path);

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -17,6 +18,7 @@
 
 #include "core/error.h"
 #include "core/json_file.h"
+#include "pipeline/executor.h"
 #include "pipeline/run_support.h"
 #include "pipeline/runner.h"
 #include "pipeline/test_support.h"
@@ -430,6 +432,54 @@ TEST_F(PipelineRunTest, OneRunPerWorkspaceAtATime) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("another relit run"), std::string::npos) << e.what();
   }
+}
+
+// Sets TMPDIR for one test and puts back what was there.
+class ScopedTmpdir {
+ public:
+  explicit ScopedTmpdir(const char* value) {
+    if (const char* old = std::getenv("TMPDIR")) saved_ = old;
+    if (value) {
+      ::setenv("TMPDIR", value, 1);
+    } else {
+      ::unsetenv("TMPDIR");
+    }
+  }
+  ~ScopedTmpdir() {
+    if (saved_) {
+      ::setenv("TMPDIR", saved_->c_str(), 1);
+    } else {
+      ::unsetenv("TMPDIR");
+    }
+  }
+
+ private:
+  std::optional<std::string> saved_;
+};
+
+TEST(RunCaptureTest, KeepsACommandsStderrInTmpdir) {
+  testing::TempDir tmp;
+  ScopedTmpdir scoped(tmp.path().c_str());
+  EXPECT_EQ(CommandStderrTemplate(), (tmp.path() / "relit-cmd-XXXXXX").string());
+  // The command lists TMPDIR while it runs: its stderr file is there.
+  std::string out, err;
+  ASSERT_EQ(RunCapture("{ ls " + tmp.path().string() + "; echo oops >&2; }", &out, &err), 0);
+  EXPECT_NE(out.find("relit-cmd-"), std::string::npos) << out;
+  EXPECT_EQ(err, "oops\n");
+  EXPECT_TRUE(fs::is_empty(tmp.path())) << "the stderr file was left behind";
+}
+
+TEST(RunCaptureTest, FallsBackToSlashTmp) {
+  {
+    ScopedTmpdir scoped(nullptr);
+    EXPECT_EQ(CommandStderrTemplate(), "/tmp/relit-cmd-XXXXXX");
+  }
+  ScopedTmpdir scoped("/nonexistent/relit-tmpdir");
+  EXPECT_EQ(CommandStderrTemplate(), "/tmp/relit-cmd-XXXXXX");
+  std::string out, err;
+  EXPECT_EQ(RunCapture("{ echo hi; echo oops >&2; }", &out, &err), 0);
+  EXPECT_EQ(out, "hi\n");
+  EXPECT_EQ(err, "oops\n");
 }
 
 }  // namespace

@@ -324,8 +324,7 @@ bool Runner::Schedule(std::map<std::string, std::vector<Job>>* slurm_batches) {
 void Runner::Complete(const JobResult& result) {
   const Step* step = graph_.Find(result.step);
   RELIT_CHECK(step != nullptr);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - started_.at(step->name)).count();
+  const double seconds = SecondsSince(started_.at(step->name));
   const Evaluation& e = evaluations_.at(step->name);
   durations_[step->name] = seconds;
   std::string message = result.message;
@@ -376,8 +375,7 @@ void Runner::ShowProgress(bool force) {
   }
   if (running.empty()) return;
   const Step& first = *graph_.Find(running.front());
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - started_.at(first.name)).count();
+  const double seconds = SecondsSince(started_.at(first.name));
   std::string text = Ordinal(first) + " " + first.name + " " + FormatDuration(seconds);
   if (running.size() > 1) text += " (+" + std::to_string(running.size() - 1) + " running)";
   const std::string line = LastLogLine(LogPath(first));

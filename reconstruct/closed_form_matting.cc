@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
+#include "core/run_record.h"
 #include "reconstruct/trimap.h"
 
 namespace relit::reconstruct {
@@ -162,7 +163,7 @@ cv::Mat SolveClosedFormMatte(const cv::Mat& image, const cv::Mat& trimap, const 
   MatteStats local;
   MatteStats* s = stats ? stats : &local;
   cv::Mat alpha = SolveMultiScale(image, trimap, prior, options, s, 1);
-  s->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  s->seconds = SecondsSince(start);
   return alpha;
 }
 

@@ -35,12 +35,6 @@ namespace fs = std::filesystem;
 constexpr const char* kReportKind = "reconstruct_report";
 constexpr int kReportVersion = 1;
 
-// Detaches the log file from the output folder when the run ends either way.
-struct LogFileScope {
-  spdlog::level::level_enum level;
-  ~LogFileScope() { InitLogging("", level); }
-};
-
 std::string FileStem(const std::string& frame_name) {
   std::string stem = frame_name;
   std::replace(stem.begin(), stem.end(), '/', '_');
@@ -65,8 +59,7 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
   AtomicDir out(workspace / "reconstruct", OutputGuard{"relit-reconstruct", options.force, {options.mesh}},
                 "--workspace");
   const fs::path root = out.path();
-  LogFileScope log_scope{level};
-  InitLogging((root / "reconstruct.log").string(), level);
+  LogFileScope log_scope((root / "reconstruct.log").string(), level);
   RunRecord record("relit-reconstruct");
   record.SetOptions(options.ToJson());
   record.AddInput("cameras", cameras_path);
@@ -223,7 +216,7 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
   summary.charts = atlas.chart_count;
   summary.atlas_utilisation = atlas_stats.utilisation;
   summary.mattes = static_cast<int>(proxy_file.mattes.size());
-  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.seconds = SecondsSince(start);
   record.Set("faces", summary.faces);
   record.Set("charts", summary.charts);
   record.Set("atlas_utilisation", summary.atlas_utilisation);

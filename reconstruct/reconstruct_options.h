@@ -193,7 +193,7 @@ struct TrimapOptions {
   double image_fraction = 0.004;
   // Expected proxy error (metres). The band must reach the proxy's far
   // errors, not its mean: the demo's proxy is 2.4 mm off the true surface
-  // on average but 6 mm at the 90th percentile (docs/benchmarks.md); on its
+  // on average but 6 mm at the 90th percentile (docs/notes/benchmarks-history.md); on its
   // frames 8-12 px bands give the same mattes, 4-6 px bands worse ones.
   double proxy_error_m = 0.008;
   void Read(OptionsReader& reader);

@@ -12,6 +12,7 @@
 #include <spdlog/spdlog.h>
 
 #include "core/error.h"
+#include "core/run_record.h"
 #include "reconstruct/atlas_internal.h"
 
 namespace relit::reconstruct {
@@ -74,7 +75,7 @@ UvAtlas BuildAtlas(const render::TriangleMesh& mesh, const AtlasOptions& options
   options.Check();
   RELIT_REQUIRE(!mesh.triangles.empty(), "reconstruct: cannot build a UV atlas for an empty mesh");
   const auto start = std::chrono::steady_clock::now();
-  auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  auto seconds = [&] { return SecondsSince(start); };
   const atlas::FaceGraph graph = atlas::BuildFaceGraph(mesh);
   std::deque<std::vector<int>> queue;
   for (auto& faces : atlas::GrowCharts(mesh, graph, options)) queue.push_back(std::move(faces));

@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/progress.h"
+#include "core/run_record.h"
 #include "reconstruct/depth_fusion.h"
 #include "reconstruct/mesh_cleanup.h"
 
@@ -193,7 +194,7 @@ render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const
   for (size_t v = 0; v < mesh.positions.size(); ++v) refined.positions[v] = positions[welded_index[v]];
   report->mean_move_m = move_sum / static_cast<double>(n);
   if (!refined.normals.empty()) refined.ComputeVertexNormals();
-  report->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  report->seconds = SecondsSince(start);
   spdlog::info("refine: {} iterations of {:.2f} mm steps; {} of {} vertices in free space at first, {} at last; "
                "vertices moved {:.2f} mm on average (max {:.2f} mm)",
                report->iterations, 1e3 * full_step, report->carved_vertices_first, n, report->carved_vertices_last,

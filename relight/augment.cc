@@ -464,7 +464,7 @@ AugmentStageResult RunAugmentStage(const std::string& workspace, int partition, 
     return result;
   }
   result.val_psnr_after_db = loop.validation.psnr_db;
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds = SecondsSince(start);
   record.Set("views", result.views);
   record.Set("augmented_frames", result.frames);
   record.Set("captured_frames", static_cast<int>(captured.size()));

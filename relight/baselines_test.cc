@@ -15,6 +15,7 @@
 #include "core/image.h"
 #include "core/json_file.h"
 #include "core/options.h"
+#include "core/run_record.h"
 #include "relight/asset.h"
 #include "relight/compare.h"
 #include "relight/augment.h"
@@ -29,10 +30,6 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 constexpr int kWidth = 160, kHeight = 120;
-
-double Seconds(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 int RunCli(std::vector<std::string> args) {
   std::vector<char*> argv;
@@ -50,7 +47,7 @@ class BaselinesTest : public ::testing::Test {
     workspace.samples_per_pixel = 8;
     testing::MakeTestWorkspace(dir_ + "/base", workspace);
     truth_ = testing::WriteTestTruth(dir_ + "/capture", true, kWidth, kHeight);
-    std::printf("workspace + truth: %.1f s\n", Seconds(start));
+    std::printf("workspace + truth: %.1f s\n", SecondsSince(start));
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
 
@@ -95,7 +92,7 @@ class BaselinesTest : public ::testing::Test {
     EXPECT_EQ(RunCli({"relit-relight", "eval", "--workspace", ws, "--config", config, "--truth", truth_,
                       "--log-level", "warn"}),
               0);
-    std::printf("%s: cues .. eval %.1f s\n", fs::path(ws).filename().c_str(), Seconds(start));
+    std::printf("%s: cues .. eval %.1f s\n", fs::path(ws).filename().c_str(), SecondsSince(start));
     const Image key = ReadImage(ws + "/views/key.exr");
     double alpha = 0;
     for (int y = 0; y < key.height(); ++y) {

@@ -10,7 +10,7 @@
 //                     "files": {...}}
 // Resuming from it and training on the same batches reproduces the
 // uninterrupted run bit for bit on the CPU (deterministic kernels, fixed
-// thread count); see relight/checkpoint_test.cc.
+// thread count); see CheckpointTest in relight/train_test.cc.
 #pragma once
 
 #include <cstdint>

@@ -9,6 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include "core/atomic_output.h"
+#include "core/capture_file.h"
 #include "core/error.h"
 #include "core/json_file.h"
 #include "core/options.h"
@@ -161,10 +162,9 @@ Image Scaled(Image image, double factor) {
 // inputs.view.transfer_used: srgb, gamma2.2, hlg, pq); "" without a
 // capture.json (a workspace not made by relit-capture, e.g. test fixtures).
 std::string CaptureTransfer(const fs::path& root) {
-  const fs::path path = root / "capture" / "capture.json";
+  const std::string path = CaptureFilePath(root.string());
   if (!fs::exists(path)) return "";
-  const json capture = ReadJsonFile(path.string(), "capture", 1);
-  return capture.value("inputs", json::object()).value("view", json::object()).value("transfer_used", std::string());
+  return ReadCaptureFile(path).inputs.at("view").transfer_used;
 }
 
 void RequireSize(const Image& image, const Intrinsics& intrinsics, const std::string& path) {

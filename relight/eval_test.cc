@@ -41,10 +41,6 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-double Seconds(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 constexpr int kWidth = 160, kHeight = 120;
 
 std::string WriteTruth(const std::string& dir, bool render_images) {
@@ -76,15 +72,9 @@ class EvalTest : public ::testing::Test {
     layout.layout = "single";
     RunPlanStage(dir_ + "/ws", dataset, layout, record);
     truth_ = WriteTruth(dir_ + "/capture", true);
-    std::printf("workspace + cues + truth: %.1f s\n", Seconds(start));
+    std::printf("workspace + cues + truth: %.1f s\n", SecondsSince(start));
     start = std::chrono::steady_clock::now();
-    ModelOptions model;
-    model.texture_resolution_px = 128;
-    model.channels_per_basis = 4;
-    model.ngf = 16;
-    model.n_blocks = 3;
-    model.mask_ngf = 8;
-    model.mask_n_blocks = 2;
+    ModelOptions model = testing::SmallModel();
     TrainStageOptions train;
     train.steps = kSteps;
     train.checkpoint_every = kSteps;
@@ -94,7 +84,7 @@ class EvalTest : public ::testing::Test {
     train.optimizer.seed = 5;
     train.optimizer.threads = 2;
     RunTrainStage(dir_ + "/ws", 0, model, train, true, record);
-    std::printf("%d training steps: %.1f s\n", kSteps, Seconds(start));
+    std::printf("%d training steps: %.1f s\n", kSteps, SecondsSince(start));
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
   static constexpr int kSteps = 200;
@@ -119,7 +109,7 @@ TEST_F(EvalTest, ScoresModelAndCuesOnlyPerLightTypeAndWritesImages) {
   ASSERT_EQ(RunCli({"relit-relight", "eval", "--workspace", dir_ + "/ws", "--config", config, "--truth", truth_,
                     "--log-level", "warn"}),
             0);
-  std::printf("eval: %.1f s\n", Seconds(start));
+  std::printf("eval: %.1f s\n", SecondsSince(start));
   const fs::path out = dir_ + "/ws/relight/eval";
   const json eval = ReadJsonFile((out / "eval.json").string(), "eval", 1);
   for (const char* file : {"eval.md", "run.json"}) EXPECT_TRUE(fs::exists(out / file)) << file;

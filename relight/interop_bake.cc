@@ -13,6 +13,7 @@
 #include "core/color.h"
 #include "core/error.h"
 #include "core/progress.h"
+#include "core/run_record.h"
 #include "relight/cue_frames.h"
 #include "relight/interop.h"
 #include "relight/render_stage.h"
@@ -22,10 +23,6 @@ namespace relit::relight {
 namespace {
 
 constexpr float kMinCoverage = 0.9f;
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // A texel whose centre lies on the surface.
 struct TexelSample {

@@ -37,10 +37,6 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-double Seconds(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 InteropOptions SmallBake() {
   InteropOptions o;
   o.bake_texture_px = 256;
@@ -66,7 +62,7 @@ class InteropTest : public ::testing::Test {
     PartitionLayoutOptions layout;
     layout.layout = "single";
     RunPlanStage(dir_, dataset, layout, record);
-    std::printf("workspace + cues: %.1f s\n", Seconds(start));
+    std::printf("workspace + cues: %.1f s\n", SecondsSince(start));
   }
   // Training and the bake only for the tests that need them (ctest runs
   // every test in its own process).
@@ -74,13 +70,7 @@ class InteropTest : public ::testing::Test {
     if (bake_) return;
     auto start = std::chrono::steady_clock::now();
     RunRecord record("test");
-    ModelOptions model;
-    model.texture_resolution_px = 128;
-    model.channels_per_basis = 4;
-    model.ngf = 16;
-    model.n_blocks = 3;
-    model.mask_ngf = 8;
-    model.mask_n_blocks = 2;
+    ModelOptions model = testing::SmallModel();
     TrainStageOptions train;
     train.steps = 60;
     train.checkpoint_every = 60;
@@ -89,12 +79,12 @@ class InteropTest : public ::testing::Test {
     train.optimizer.learning_rate = 2e-3;
     train.optimizer.threads = 2;
     RunTrainStage(dir_, 0, model, train, true, record);
-    std::printf("60 training steps: %.1f s\n", Seconds(start));
+    std::printf("60 training steps: %.1f s\n", SecondsSince(start));
     start = std::chrono::steady_clock::now();
     bake_ = std::make_unique<BakedTexture>();
     gltf_ = ExportGltf(dir_, dir_ + "/interop/gltf", SmallBake(), bake_.get());
     std::printf("bake (%d views, %d² texture): %.1f s (render %.1f s, unwrap %.2f s)\n", SmallBake().bake_views,
-                SmallBake().bake_texture_px, Seconds(start), bake_->render_seconds, bake_->accumulate_seconds);
+                SmallBake().bake_texture_px, SecondsSince(start), bake_->render_seconds, bake_->accumulate_seconds);
   }
   static void TearDownTestSuite() {
     bake_.reset();

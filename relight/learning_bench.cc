@@ -39,10 +39,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-double Seconds(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 void PrepareWorkspace(const std::string& dir, int frames, int width_px, bool support_plane, int target_spp,
                       int cue_spp) {
   if (fs::exists(fs::path(dir) / "relight/plan/plan.json")) return;
@@ -70,13 +66,7 @@ int Run(int argc, char** argv) {
   CLI::App app{"held-out quality of the DNL model vs the cues-only baseline"};
   std::string dir = (fs::temp_directory_path() / "relit_learning_bench").string();
   int frames = 24, width = 160, steps = 300;
-  ModelOptions model;
-  model.texture_resolution_px = 128;
-  model.channels_per_basis = 4;
-  model.ngf = 16;
-  model.n_blocks = 3;
-  model.mask_ngf = 8;
-  model.mask_n_blocks = 2;
+  ModelOptions model = testing::SmallModel();
   TrainStageOptions training;
   training.checkpoint_every = 1000000;
   training.validate_every = 0;
@@ -135,7 +125,7 @@ int Run(int argc, char** argv) {
   const auto start = std::chrono::steady_clock::now();
   RunRecord record("bench");
   RunTrainStage(dir, 0, model, training, true, record);
-  const double train_s = Seconds(start);
+  const double train_s = SecondsSince(start);
 
   CuesOnlyBaseline baseline(model.texture_resolution_px);
   for (int index : plan.partitions[0].train_frames) {

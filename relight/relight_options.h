@@ -38,7 +38,8 @@ struct RelightOptions {
 // of pipeline.yaml. No LibTorch.
 void CheckRelightSection(OptionsReader& reader);
 
-// `relit-relight <cues|plan|train|render> ...`; see docs/relight.md.
+// `relit-relight <cues|plan|train|augment|render|export|eval|compare> ...`;
+// see docs/relight.md.
 int RunRelight(int argc, char** argv);
 
 }  // namespace relit::relight

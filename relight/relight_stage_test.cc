@@ -31,20 +31,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-double Seconds(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-ModelOptions SmallModel() {
-  ModelOptions m;
-  m.texture_resolution_px = 128;
-  m.channels_per_basis = 4;
-  m.ngf = 16;
-  m.n_blocks = 3;
-  m.mask_ngf = 8;
-  m.mask_n_blocks = 2;
-  return m;
-}
+using testing::SmallModel;
 
 TrainStageOptions SmallTraining(int steps) {
   TrainStageOptions t;
@@ -65,13 +52,13 @@ class RelightStageTest : public ::testing::Test {
     const auto start = std::chrono::steady_clock::now();
     testing::TestWorkspaceOptions o;
     testing::MakeTestWorkspace(dir_, o);
-    std::printf("workspace: %.1f s\n", Seconds(start));
+    std::printf("workspace: %.1f s\n", SecondsSince(start));
     const auto cues_start = std::chrono::steady_clock::now();
     CueStageOptions cues;
     cues.samples_per_pixel = 8;
     RunRecord record("test");
     RunCueStage(dir_, cues, record);
-    std::printf("cues: %.1f s\n", Seconds(cues_start));
+    std::printf("cues: %.1f s\n", SecondsSince(cues_start));
     DatasetOptions dataset;
     dataset.holdout_every = 4;
     PartitionLayoutOptions layout;
@@ -118,7 +105,7 @@ TEST_F(RelightStageTest, TrainedModelBeatsCuesOnlyBaselineOnHeldOutFrames) {
   RunRecord record("test");
   const TrainStageOptions training = SmallTraining(300);
   const TrainStageResult result = RunTrainStage(dir_, 0, SmallModel(), training, true, record);
-  std::printf("training: %lld steps in %.1f s\n", static_cast<long long>(result.steps), Seconds(start));
+  std::printf("training: %lld steps in %.1f s\n", static_cast<long long>(result.steps), SecondsSince(start));
   ASSERT_FALSE(result.skipped);
 
   const Plan plan = ReadPlan(dir_ + "/relight/plan/plan.json");
@@ -282,7 +269,7 @@ TEST_F(RelightStageTest, AugmentFineTunesThePointLightModelUnderEnvironmentMaps)
   RunTrainStage(dir_, 0, SmallModel(), training, true, record);
   const auto start = std::chrono::steady_clock::now();
   const AugmentStageResult result = RunAugmentStage(dir_, 0, SmallAugment(), training, true, record);
-  std::printf("augment: %.1f s\n", Seconds(start));
+  std::printf("augment: %.1f s\n", SecondsSince(start));
   EXPECT_EQ(result.views, 3);
   EXPECT_EQ(result.frames, 6);
   EXPECT_EQ(result.steps, 30);  // continues the point-light model's 20 steps

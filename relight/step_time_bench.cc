@@ -18,6 +18,7 @@
 #include <CLI/CLI.hpp>
 
 #include "core/main_wrapper.h"
+#include "core/run_record.h"
 #include "relight/model.h"
 #include "relight/test_scene.h"
 
@@ -112,7 +113,7 @@ int Run(int argc, char** argv) {
     const auto start = std::chrono::steady_clock::now();
     const std::clock_t cpu_start = std::clock();
     for (int s = 0; s < steps; ++s) trainer.Step(batch).total.item<double>();
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / steps;
+    const double seconds = SecondsSince(start) / steps;
     const double cpu_seconds = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC / steps;
     std::string quality = "-";
     if (quality_steps > 0) {

@@ -43,6 +43,17 @@ void Inflate(render::TriangleMesh& mesh, double offset_m) {
 
 }  // namespace
 
+ModelOptions SmallModel() {
+  ModelOptions m;
+  m.texture_resolution_px = 128;
+  m.channels_per_basis = 4;
+  m.ngf = 16;
+  m.n_blocks = 3;
+  m.mask_ngf = 8;
+  m.mask_n_blocks = 2;
+  return m;
+}
+
 void MakeTestWorkspace(const std::string& dir, const TestWorkspaceOptions& o) {
   fs::remove_all(dir);
   fs::create_directories(fs::path(dir) / "calib" / "undistorted" / "view");

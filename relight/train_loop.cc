@@ -1,7 +1,5 @@
 #include "relight/train_loop.h"
 
-#include <sys/resource.h>
-
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -13,6 +11,7 @@
 #include "core/atomic_output.h"
 #include "core/error.h"
 #include "core/progress.h"
+#include "core/run_record.h"
 #include "relight/checkpoint.h"
 #include "relight/dataset.h"
 
@@ -107,7 +106,7 @@ TrainLoopResult RunTrainLoop(Trainer& trainer, const std::function<Batch(int64_t
   const int64_t total = settings.total_steps;
   Progress progress(settings.label, total - std::min(trainer.step(), total));
   const auto start = std::chrono::steady_clock::now();
-  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  auto elapsed = [&] { return SecondsSince(start); };
   auto validate = [&](int64_t step) {
     if (validation.empty()) return;
     result.validation = Validate(trainer.model(), validation);
@@ -152,13 +151,6 @@ TrainLoopResult RunTrainLoop(Trainer& trainer, const std::function<Batch(int64_t
   progress.Finish();
   if (!result.interrupted) validate(trainer.step());
   return result;
-}
-
-double ProcessCpuSeconds() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
-  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
 }
 
 }  // namespace relit::relight

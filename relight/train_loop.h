@@ -64,8 +64,4 @@ TrainLoopResult RunTrainLoop(Trainer& trainer, const std::function<Batch(int64_t
                              const std::vector<Batch>& validation, const TrainLoopSettings& settings,
                              const std::function<std::string(int64_t)>& tag = {});
 
-// User + system CPU seconds of this process so far (getrusage): the
-// training budget recorded in train.json (`process_cpu_s`).
-double ProcessCpuSeconds();
-
 }  // namespace relit::relight

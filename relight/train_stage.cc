@@ -157,7 +157,7 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
                  partition, loop.signal, result.steps);
     return result;
   }
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds = SecondsSince(start);
   record.Set("partition", partition);
   record.Set("steps", result.steps);
   record.Set("resumed_from_step", result.resumed_from);

@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/options.h"
+#include "core/run_record.h"
 #include "relight/checkpoint.h"
 #include "relight/model.h"
 #include "relight/warm_start.h"
@@ -73,7 +74,7 @@ TEST(TrainTest, OverfitsATinySyntheticProblem) {
     rgb.push_back(losses.rgb.item<double>());
     ASSERT_TRUE(std::isfinite(total.back())) << "step " << s;
   }
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds = SecondsSince(start);
   auto mean = [&](const std::vector<double>& v, int from) { return WindowMean(v, from, window); };
   const double first = mean(total, 0), last = mean(total, steps - window);
   const double first_rgb = mean(rgb, 0), last_rgb = mean(rgb, steps - window);

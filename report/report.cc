@@ -21,12 +21,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Detaches the log file from the output folder when the run ends either way.
-struct LogFileScope {
-  spdlog::level::level_enum level;
-  ~LogFileScope() { InitLogging("", level); }
-};
-
 bool IsNotRun(const Section& section) { return section.html.rfind("<div class=\"notrun\">", 0) == 0; }
 
 }  // namespace
@@ -39,8 +33,7 @@ ReportSummary RunReportImpl(const ReportOptions& options) {
   RELIT_REQUIRE(fs::is_directory(workspace), "relit-report: workspace ", workspace.string(),
                 " is not a folder (give the folder that holds capture/, calib/, ...)");
   AtomicDir out(workspace / "report", OutputGuard{"relit-report", options.force, {}}, "--workspace");
-  LogFileScope log_scope{level};
-  InitLogging((out.path() / "report.log").string(), level);
+  LogFileScope log_scope((out.path() / "report.log").string(), level);
   RunRecord record("relit-report");
   record.SetOptions(options.ToJson());
 
@@ -93,7 +86,7 @@ ReportSummary RunReportImpl(const ReportOptions& options) {
                   Page("relit report: " + fs::absolute(workspace).lexically_normal().filename().string(),
                        summary_html, sections));
   summary.warnings = context.warnings();
-  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.seconds = SecondsSince(start);
   summary.results = context.results;
   record.Set("results", summary.results);
   record.Set("warnings", summary.warnings);

@@ -1,9 +1,13 @@
 // Capture and calibration sections.
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
+#include "core/capture_file.h"
 #include "core/json_file.h"
 #include "core/workspace.h"
 #include "report/sections.h"
@@ -25,6 +29,11 @@ const std::map<std::string, std::string>& ReasonMeaning() {
       {"outside_light_video", "no phone L frame on both sides (outside the light video)"},
       {"not_selected", "thinned out to the target frame count / rate"}};
   return meaning;
+}
+
+// A frame count, or "–" where the file has none.
+std::string CountText(const std::optional<int>& count) {
+  return count ? std::to_string(*count) : JsonScalarText(json());
 }
 
 std::string SyncHtml(ReportContext& context, const json& sync) {
@@ -83,52 +92,51 @@ Section CaptureSection(ReportContext& context) {
     section.html = NotRunYet("W/" + file, "Run relit-capture --view V.mp4 --light L.mp4 --out W/capture.");
     return section;
   }
-  const json capture = ReadJsonFile(context.Input(file).string(), "capture", 1);
+  const CaptureFile capture = ReadCaptureFile(context.Input(file).string());
   std::string& html = section.html;
   // Kept / rejected frames by reason.
-  const json counts = capture.value("counts", json::object());
-  const json view_counts = counts.value("view", json::object());
+  const std::map<std::string, int>& view_counts = capture.view_counts;
   int decoded = 0;
-  for (auto it = view_counts.begin(); it != view_counts.end(); ++it) decoded += it.value().get<int>();
+  for (const auto& [reason, n] : view_counts) decoded += n;
   std::vector<std::vector<std::string>> rows;
   std::vector<std::string> order = {"kept"};
-  for (auto it = view_counts.begin(); it != view_counts.end(); ++it) {
-    if (it.key() != "kept") order.push_back(it.key());
+  for (const auto& [reason, n] : view_counts) {
+    if (reason != "kept") order.push_back(reason);
   }
   for (const std::string& reason : order) {
-    if (!view_counts.contains(reason)) continue;
-    const int n = view_counts[reason].get<int>();
+    if (!view_counts.count(reason)) continue;
+    const int n = view_counts.at(reason);
     const auto meaning = ReasonMeaning().find(reason);
     rows.push_back({reason, std::to_string(n), Fixed(decoded > 0 ? 100.0 * n / decoded : 0, 1) + " %",
                     meaning == ReasonMeaning().end() ? "" : meaning->second});
   }
   html += "<h3>Phone V frames</h3>\n";
   html += Paragraph(std::to_string(decoded) + " frames decoded from phone V; phone L: " +
-                    JsonScalarText(counts.value("light_usable", json())) + " usable, " +
-                    JsonScalarText(counts.value("light_kept", json())) + " kept around the kept V frames.");
+                    CountText(capture.light_usable) + " usable, " + CountText(capture.light_kept) +
+                    " kept around the kept V frames.");
   html += Table({"frames", "count", "share", "why"}, rows);
-  const size_t geometry_frames = capture.value("geometry_frames", json::array()).size();
+  const size_t geometry_frames = capture.geometry.size();
   if (geometry_frames > 0) {
     html += Paragraph("Geometry pass: " + std::to_string(geometry_frames) +
                       " frames kept (ambient light; the proxy mesh is built from them).");
   }
-  const int kept = view_counts.value("kept", 0);
+  const int kept = view_counts.count("kept") ? view_counts.at("kept") : 0;
   if (kept < 10) {
     html += Warning("only " + std::to_string(kept) + " phone V frames kept: too few to train on");
     context.AddWarning("capture", "only " + std::to_string(kept) + " phone V frames kept");
   }
   // Sharpness over time, kept and rejected by reason.
   std::map<std::string, PlotSeries> by_reason;
-  auto add = [&](const std::string& reason, const json& frame) {
+  auto add = [&](const std::string& reason, double time_s, double sharpness) {
     PlotSeries& s = by_reason[reason];
     s.label = reason;
     s.line = false;
     s.markers = true;
-    s.x.push_back(frame.value("time_s", NAN));
-    s.y.push_back(frame.value("sharpness", NAN));
+    s.x.push_back(time_s);
+    s.y.push_back(sharpness);
   };
-  for (const json& f : capture.value("view_frames", json::array())) add("kept", f);
-  for (const json& f : capture.value("rejected_view_frames", json::array())) add(f.value("reason", "?"), f);
+  for (const CaptureFrame& f : capture.view) add("kept", f.time_s, f.sharpness);
+  for (const RejectedFrame& f : capture.rejected_view) add(f.reason, f.time_s, f.sharpness);
   std::vector<PlotSeries> series;
   if (by_reason.count("kept")) series.push_back(by_reason["kept"]);
   for (auto& [reason, s] : by_reason) {
@@ -141,7 +149,7 @@ Section CaptureSection(ReportContext& context) {
   plot.log_y = true;
   html += FigureRow({Figure(context.WriteAsset("capture_frames.svg", PlotSvg(plot, series)),
                             "Every decoded phone V frame; colour = kept or the reason it was rejected.")});
-  html += SyncHtml(context, capture.value("sync", json::object()));
+  html += SyncHtml(context, capture.sync.is_object() ? capture.sync : json::object());
   return section;
 }
 

@@ -283,8 +283,7 @@ SynthSummary RunSynthImpl(const SynthOptions& options) {
   record.Write((root / "run.json").string());
   out.Commit();
   summary.out_dir = options.out;
-  summary.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.seconds = SecondsSince(start);
   spdlog::info("relit-synth: wrote {} ({} video frames, {} eval images) in {:.1f} s", options.out,
                summary.frames_rendered, summary.eval_images, summary.seconds);
   return summary;
