@@ -216,6 +216,18 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   run.ransac_trials = so.ransac_trials;
   run.threads = so.threads;
   run.min_registered = so.min_registered;
+  run.max_features = so.max_features;
+  if (so.mode == "board_seeded") {
+    // Frames whose board pose rests on enough corners keep it; COLMAP places the rest.
+    for (size_t i = 0; i < frames.size(); ++i) {
+      if (problem->frames[i].posed && static_cast<int>(frames[i].board.corner_ids.size()) >= so.seed_min_corners) {
+        run.known_poses[images[i].name] = problem->frames[i].cam_from_world;
+      }
+    }
+    RELIT_REQUIRE(run.known_poses.size() >= 2, "sfm.mode board_seeded: only ", run.known_poses.size(),
+                  " frames show >= sfm.seed_min_corners = ", so.seed_min_corners, " board corners; lower it or "
+                  "set sfm.mode: incremental in the --config file");
+  }
   const SfmResult sfm = RunColmapSfm(images, lenses, pairs, run);
   for (const auto& [step, seconds] : sfm.timings_s) (*timings_s)["colmap_" + step] = seconds;
 
@@ -270,6 +282,8 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   nlohmann::json unregistered = nlohmann::json::object();
   for (const auto& [name, reason] : sfm.unregistered) unregistered[name] = reason;
   return {{"ran", true},
+          {"mode", so.mode},
+          {"seeded_frames", run.known_poses.size()},
           {"images", sfm.images},
           {"registered", sfm.model.cam_from_model.size()},
           {"registered_by_device", sfm.registered_by_device},
