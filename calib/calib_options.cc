@@ -60,6 +60,7 @@ void SfmOptions::Read(OptionsReader& r) {
   r.ReadRange("max_features", &max_features, 100, 100000);
   r.Read("colmap", &colmap);
   r.ReadRange("sequential_overlap", &sequential_overlap, 1, 1000);
+  r.ReadRange("seeded_overlap", &seeded_overlap, 1, 1000);
   r.ReadRange("ransac_trials", &ransac_trials, 10, 1000000);
   r.ReadRange("cross_pair_max_angle_deg", &cross_pair_max_angle_deg, 0.0, 180.0);
   r.ReadRange("cross_pairs_per_frame", &cross_pairs_per_frame, 0, 1000);
@@ -76,7 +77,8 @@ void SfmOptions::Check() const {
   RELIT_REQUIRE(seed_min_corners >= 4, "sfm.seed_min_corners must be >= 4 (PnP), got ", seed_min_corners);
   RELIT_REQUIRE(max_features >= 100, "sfm.max_features must be >= 100, got ", max_features);
   RELIT_REQUIRE(!colmap.empty(), "sfm.colmap (the COLMAP executable) must not be empty");
-  RELIT_REQUIRE(sequential_overlap >= 1, "sfm.sequential_overlap must be >= 1");
+  RELIT_REQUIRE(sequential_overlap >= 1 && seeded_overlap >= 1,
+                "sfm.sequential_overlap and sfm.seeded_overlap must be >= 1");
   RELIT_REQUIRE(ransac_trials >= 10, "sfm.ransac_trials must be >= 10");
   RELIT_REQUIRE(min_registered >= 2, "sfm.min_registered must be >= 2");
   RELIT_REQUIRE(align_inlier_m > 0, "sfm.align_inlier_m must be positive");
@@ -90,6 +92,7 @@ nlohmann::json SfmOptions::ToJson() const {
           {"max_features", max_features},
           {"colmap", colmap},
           {"sequential_overlap", sequential_overlap},
+          {"seeded_overlap", seeded_overlap},
           {"ransac_trials", ransac_trials},
           {"cross_pair_max_angle_deg", cross_pair_max_angle_deg},
           {"cross_pairs_per_frame", cross_pairs_per_frame},

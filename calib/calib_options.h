@@ -54,10 +54,13 @@ struct SfmOptions {
   // "incremental": COLMAP's incremental mapper from scratch, then aligned
   // to the board (the slower path before issue 28).
   std::string mode = "board_seeded";
-  int seed_min_corners = 10;       // board corners a frame needs to seed the model with its pose
+  int seed_min_corners = 6;        // board corners a frame needs to seed the model with its pose
   int max_features = 8192;         // SIFT features per image (COLMAP's default)
   std::string colmap = "colmap";   // the COLMAP executable
-  int sequential_overlap = 10;     // neighbours matched in each phone's frame order
+  int sequential_overlap = 10;     // neighbours matched in each phone's frame order (incremental)
+  // The same for board_seeded: the board poses tie the model together, so
+  // fewer neighbours suffice (matching is most of COLMAP's time).
+  int seeded_overlap = 3;
   int ransac_trials = 1000;        // COLMAP geometric verification trials per image pair
   double cross_pair_max_angle_deg = 35.0;  // V/L frame pairs matched across phones
   int cross_pairs_per_frame = 4;
@@ -79,7 +82,7 @@ struct RefineOptions {
   // frames, sparse Schur above), "dense_schur", "sparse_schur" or
   // "iterative_schur" (conjugate gradients, Schur-Jacobi preconditioner).
   std::string linear_solver = "auto";
-  int dense_schur_max_frames = 400;
+  int dense_schur_max_frames = 100;
   double function_tolerance = 1e-9;  // Ceres stops when the cost changes by less than this fraction
   double max_corner_rms_px = 1.0;  // board-corner RMS above this: calibration rejected
   double max_ratio_error = 0.04;   // |measured/specified marker-to-square ratio - 1|

@@ -175,6 +175,7 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   // the pass to the V/L model) and with their own frames further apart in
   // time than the sequential matcher reaches (the pass is one closed turn).
   std::vector<std::pair<std::string, std::string>> pairs;
+  const int overlap = so.mode == "board_seeded" ? so.seeded_overlap : so.sequential_overlap;
   const double max_angle = so.cross_pair_max_angle_deg * M_PI / 180.0;
   auto add_pairs = [&](size_t a, const std::function<bool(size_t)>& partner) {
     const Eigen::Vector3d da = problem->frames[a].cam_from_world.Inverse().translation.normalized();
@@ -198,7 +199,7 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
     } else if (device_of(a) == "geometry") {
       add_pairs(a, [&](size_t b) { return device_of(b) == "view" || device_of(b) == "light"; });
       add_pairs(a, [&](size_t b) {
-        return device_of(b) == "geometry" && frames[b].capture.index > frames[a].capture.index + so.sequential_overlap;
+        return device_of(b) == "geometry" && frames[b].capture.index > frames[a].capture.index + overlap;
       });
     }
   }
@@ -212,7 +213,7 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   run.colmap = so.colmap;
   run.image_dir = (fs::path(workspace) / "capture").string();
   run.work_dir = work_dir;
-  run.sequential_overlap = so.sequential_overlap;
+  run.sequential_overlap = overlap;
   run.ransac_trials = so.ransac_trials;
   run.threads = so.threads;
   run.min_registered = so.min_registered;

@@ -120,7 +120,8 @@ void WriteKnownPoseModel(const std::string& dir, const std::string& database,
 }
 
 // The board-seeded model in `out_dir`: points triangulated from the known
-// poses (held fixed), then the other images registered to those points.
+// poses (held fixed), the other images registered to those points, and the
+// points triangulated again with every registered pose fixed.
 void RunSeeded(const SfmRunOptions& o, const std::string& database, const std::vector<SfmImage>& images,
                const std::map<std::string, Intrinsics>& lenses, const std::string& out_dir,
                const std::string& mapper_flags, std::map<std::string, double>* timings_s) {
@@ -137,10 +138,18 @@ void RunSeeded(const SfmRunOptions& o, const std::string& database, const std::v
       db + " --image_path " + ShellQuote(o.image_dir) + " --input_path " + ShellQuote(known) +
           " --output_path " + ShellQuote(triangulated) + mapper_flags);
   if (all_known) return;
-  fs::create_directories(out_dir);
+  const std::string registered = (fs::path(o.work_dir) / "registered").string();
+  fs::create_directories(registered);
   (*timings_s)["image_registrator"] = RunStep(
       o, "image_registrator",
-      db + " --input_path " + ShellQuote(triangulated) + " --output_path " + ShellQuote(out_dir) + mapper_flags);
+      db + " --input_path " + ShellQuote(triangulated) + " --output_path " + ShellQuote(registered) + mapper_flags);
+  // image_registrator only links the new frames to existing points: a second
+  // triangulation (poses still fixed) extends the tracks through them.
+  fs::create_directories(out_dir);
+  (*timings_s)["point_triangulator"] += RunStep(
+      o, "point_triangulator",
+      db + " --image_path " + ShellQuote(o.image_dir) + " --input_path " + ShellQuote(registered) +
+          " --output_path " + ShellQuote(out_dir) + mapper_flags);
 }
 
 }  // namespace
