@@ -52,8 +52,8 @@ struct BundleOptions {
   int max_iterations = 100;
   int threads = 0;
   std::string linear_solver = "auto";  // auto | dense_schur | sparse_schur | iterative_schur
-  int dense_schur_max_frames = 400;    // auto: dense Schur up to this many posed frames
-  double function_tolerance = 1e-9;
+  int dense_schur_max_frames = 100;    // auto: dense Schur up to this many posed frames
+  double function_tolerance = 1e-6;
 };
 
 struct BundleStats {

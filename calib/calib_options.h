@@ -83,7 +83,9 @@ struct RefineOptions {
   // "iterative_schur" (conjugate gradients, Schur-Jacobi preconditioner).
   std::string linear_solver = "auto";
   int dense_schur_max_frames = 100;
-  double function_tolerance = 1e-9;  // Ceres stops when the cost changes by less than this fraction
+  // Ceres stops when the cost changes by less than this fraction (1e-9
+  // bought no accuracy for 3x the time: docs/benchmarks.md, issue 28).
+  double function_tolerance = 1e-6;
   double max_corner_rms_px = 1.0;  // board-corner RMS above this: calibration rejected
   double max_ratio_error = 0.04;   // |measured/specified marker-to-square ratio - 1|
 

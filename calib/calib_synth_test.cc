@@ -121,7 +121,10 @@ class CalibSynthTest : public ::testing::Test {
     CalibOptions o = base;
     o.sfm.enabled = true;
     o.sfm.mode = mode;
-    o.sfm.sequential_overlap = 6;  // incremental only; board_seeded uses seeded_overlap (3)
+    // The tiny capture's frames are ~10 deg apart (a real capture's 2-4):
+    // both paths match 6 neighbours, as before issue 28.
+    o.sfm.sequential_overlap = 6;
+    o.sfm.seeded_overlap = 6;
     const CalibSummary s = RunCalibImpl(o);
     // With the lenses from the board clips: the issue's targets. Without the
     // clips the capture frames leave phone V's principal point loose (1.2 px
