@@ -6,12 +6,17 @@
 //  2. Step timings of the calib run (detection, COLMAP steps, refinement)
 //     from W/calib/calib_report.json.
 //  3. Accuracy of W/calib against truth.json (poses, lenses, flash).
+//  4. With several --workspace (copies of one capture calibrated with
+//     different options, e.g. sfm.mode incremental vs board_seeded): step
+//     timings and accuracy side by side, one column per workspace.
 // Results and how to reproduce them: docs/benchmarks.md, section "Calib".
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -212,19 +217,100 @@ void PrintAccuracy(const std::string& workspace, const json& truth, const json& 
               report["scale_check"].value("marker_to_square_measured", json()).dump().c_str());
 }
 
+std::string Cell(const char* format, double value) {
+  char text[64];
+  std::snprintf(text, sizeof(text), format, value);
+  return text;
+}
+
+// Step timings and accuracy of several calibrated copies of one capture.
+void PrintSideBySide(const std::vector<std::string>& workspaces, const json& truth) {
+  std::vector<json> reports;
+  std::vector<CalibAccuracy> accuracy;
+  std::set<std::string> steps;
+  for (const std::string& w : workspaces) {
+    reports.push_back(ReadJsonFile(w + "/calib/calib_report.json", "calib_report", 1));
+    accuracy.push_back(MeasureCalibAccuracy(w, truth));
+    for (const auto& [step, seconds] : reports.back()["timings_s"].items()) steps.insert(step);
+  }
+  std::printf("\n## Side by side\n\n| |");
+  for (const json& r : reports) std::printf(" %s |", r["sfm"].value("mode", std::string("no sfm")).c_str());
+  std::printf("\n| --- |");
+  for (size_t i = 0; i < reports.size(); ++i) std::printf(" --- |");
+  std::printf("\n");
+  auto row = [&](const std::string& name, const std::function<std::string(size_t)>& cell) {
+    std::printf("| %s |", name.c_str());
+    for (size_t i = 0; i < reports.size(); ++i) std::printf(" %s |", cell(i).c_str());
+    std::printf("\n");
+  };
+  row("images (V / L / geometry)", [&](size_t i) {
+    const json& r = reports[i]["registered"];
+    return std::to_string(r.value("view_frames", 0)) + " / " + std::to_string(r.value("light_frames", 0)) + " / " +
+           std::to_string(r.value("geometry_frames", 0));
+  });
+  row("registered", [&](size_t i) {
+    const json& r = reports[i]["registered"];
+    return std::to_string(r.value("view", 0) + r.value("light", 0) + r.value("geometry", 0));
+  });
+  row("seeded by the board", [&](size_t i) { return reports[i]["sfm"].value("seeded_frames", json(0)).dump(); });
+  for (const std::string& step : steps) {
+    row(step + " (s)", [&](size_t i) {
+      const json& t = reports[i]["timings_s"];
+      return t.contains(step) ? Cell("%.1f", t[step].get<double>()) : std::string("");
+    });
+  }
+  // Sum of the steps (COLMAP's separately: older reports timed the joint
+  // refinement inside "sfm").
+  row("total of the steps (s)", [&](size_t i) {
+    double total = 0;
+    for (const auto& [step, seconds] : reports[i]["timings_s"].items()) {
+      if (step != "sfm") total += seconds.get<double>();
+    }
+    return Cell("%.1f", total);
+  });
+  row("joint refinement solver, iterations", [&](size_t i) {
+    const json& r = reports[i]["refine"];
+    return r.value("linear_solver", std::string("?")) + ", " + std::to_string(r.value("iterations", 0));
+  });
+  row("SfM points", [&](size_t i) { return reports[i]["sfm"].value("points", json(0)).dump(); });
+  for (const std::string device : {"view", "light", "geometry"}) {
+    if (!accuracy[0].devices.count(device)) continue;
+    row(device + " position median / p90 (mm)", [&](size_t i) {
+      const DeviceAccuracy& d = accuracy[i].devices[device];
+      return Cell("%.2f", d.position_median_mm) + " / " + Cell("%.2f", d.position_p90_mm);
+    });
+    row(device + " rotation median / p90 (deg)", [&](size_t i) {
+      const DeviceAccuracy& d = accuracy[i].devices[device];
+      return Cell("%.3f", d.rotation_median_deg) + " / " + Cell("%.3f", d.rotation_p90_deg);
+    });
+  }
+  row("flash median / p90 (mm)", [&](size_t i) {
+    return Cell("%.2f", accuracy[i].flash_median_mm) + " / " + Cell("%.2f", accuracy[i].flash_p90_mm);
+  });
+  row("board-corner RMS (px)", [&](size_t i) { return Cell("%.3f", reports[i]["refine"].value("corner_rms_px", NAN)); });
+}
+
 int Run(int argc, char** argv) {
   CLI::App app{"relit-bench-calib: detection, step timings and accuracy of calib on a synthetic capture"};
-  std::string workspace, truth_path;
+  std::vector<std::string> workspaces;
+  std::string truth_path;
   int max_frames = 40;
-  bool detection_only = false;
-  app.add_option("--workspace", workspace, "workspace with capture/ (and calib/ for timings and accuracy)")->required();
+  bool detection_only = false, skip_detection = false;
+  app.add_option("--workspace", workspaces, "workspace with capture/ (and calib/ for timings and accuracy); "
+                 "repeat it for copies of one capture calibrated differently (side-by-side table)")->required();
   app.add_option("--truth", truth_path, "truth.json of the synthetic capture")->required();
   app.add_option("--max-frames", max_frames, "frames per phone for the detection comparison (0 = all)");
   app.add_flag("--detection-only", detection_only, "skip the calib/ sections");
+  app.add_flag("--skip-detection", skip_detection, "skip the detector comparison (section 1)");
   CLI11_PARSE(app, argc, argv);
   const json truth = ReadJsonFile(truth_path, "synth_truth", 1);
-  PrintDetection(SampleFrames(workspace, truth, max_frames), BoardSpecFromTruth(truth));
+  const std::string& workspace = workspaces.front();
+  if (!skip_detection) PrintDetection(SampleFrames(workspace, truth, max_frames), BoardSpecFromTruth(truth));
   if (detection_only) return 0;
+  if (workspaces.size() > 1) {
+    PrintSideBySide(workspaces, truth);
+    return 0;
+  }
   const json report = ReadJsonFile(workspace + "/calib/calib_report.json", "calib_report", 1);
   PrintStepTimings(report);
   PrintAccuracy(workspace, truth, report);

@@ -1,5 +1,7 @@
 #include "calib/bundle.h"
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <thread>
 
@@ -111,6 +113,26 @@ Inliers AllInliers(const BundleProblem& p) {
   return in;
 }
 
+// Solver settings: the Schur complement's size is 7 per frame (pose) plus the
+// lenses, dense up to a few hundred frames, sparse beyond (frames share
+// points only with their neighbours in time and direction).
+void ConfigureSolver(const BundleOptions& o, int frames, ceres::Solver::Options* options) {
+  const std::string& s = o.linear_solver;
+  if (s == "dense_schur" || (s == "auto" && frames <= o.dense_schur_max_frames)) {
+    options->linear_solver_type = ceres::DENSE_SCHUR;
+  } else if (s == "iterative_schur") {
+    options->linear_solver_type = ceres::ITERATIVE_SCHUR;
+    options->preconditioner_type = ceres::SCHUR_JACOBI;
+  } else {
+    options->linear_solver_type = ceres::SPARSE_SCHUR;
+  }
+  options->max_num_iterations = o.max_iterations;
+  options->num_threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  options->function_tolerance = o.function_tolerance;
+  options->parameter_tolerance = 1e-9;
+  options->logging_type = ceres::SILENT;
+}
+
 ceres::Solver::Summary Solve(BundleProblem* p, const Inliers& inliers, const BundleOptions& o) {
   Blocks b = ToBlocks(*p);
   std::vector<std::array<double, 3>> points;
@@ -170,13 +192,28 @@ ceres::Solver::Summary Solve(BundleProblem* p, const Inliers& inliers, const Bun
     }
   }
   ceres::Solver::Options options;
-  // A few dozen frames: the dense Schur complement is small and robust.
-  options.linear_solver_type = p->frames.size() <= 400 ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
-  options.max_num_iterations = o.max_iterations;
-  options.num_threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  options.function_tolerance = 1e-9;
-  options.parameter_tolerance = 1e-9;
-  options.logging_type = ceres::SILENT;
+  ConfigureSolver(o, static_cast<int>(std::count(used_frame.begin(), used_frame.end(), true)), &options);
+  if (options.linear_solver_type != ceres::DENSE_SCHUR && !points.empty()) {
+    // Points first: Schur elimination leaves the reduced camera system, whose
+    // sparsity follows the frames that share points.
+    auto* ordering = new ceres::ParameterBlockOrdering;
+    for (auto& point : points) {
+      if (problem.HasParameterBlock(point.data())) ordering->AddElementToGroup(point.data(), 0);
+    }
+    for (size_t f = 0; f < p->frames.size(); ++f) {
+      if (!used_frame[f]) continue;
+      ordering->AddElementToGroup(b.q[f].data(), 1);
+      ordering->AddElementToGroup(b.t[f].data(), 1);
+    }
+    for (auto& [name, lens] : b.lens) {
+      if (used_lens[name]) ordering->AddElementToGroup(lens.data(), 1);
+    }
+    if (ordering->NumElements() > 0 && ordering->GroupSize(0) > 0) {
+      options.linear_solver_ordering.reset(ordering);
+    } else {
+      delete ordering;
+    }
+  }
   ceres::Solver::Summary summary;
   if (problem.NumResidualBlocks() > 0) ceres::Solve(options, &problem, &summary);
   FromBlocks(b, p);
@@ -241,6 +278,7 @@ BundleStats Evaluate(const BundleProblem& p, double outlier_px, Inliers* inliers
 
 BundleStats RefineBundle(BundleProblem* problem, const BundleOptions& options) {
   RELIT_CHECK(problem->corners_world.size() > 0);
+  const auto start = std::chrono::steady_clock::now();
   Inliers inliers = AllInliers(*problem);
   ceres::Solver::Summary first = Solve(problem, inliers, options);
   Evaluate(*problem, options.outlier_px, &inliers);
@@ -249,6 +287,11 @@ BundleStats RefineBundle(BundleProblem* problem, const BundleOptions& options) {
   stats.iterations = static_cast<int>(first.iterations.size() + second.iterations.size());
   stats.initial_cost = first.initial_cost;
   stats.final_cost = second.final_cost;
+  stats.linear_solver = ceres::LinearSolverTypeToString(second.linear_solver_type_used);
+  stats.solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  spdlog::info("bundle: {} frames, {} points, {} ({} + {} iterations, {:.1f} s)", problem->frames.size(),
+               problem->points.size(), stats.linear_solver, first.iterations.size(), second.iterations.size(),
+               stats.solve_s);
   spdlog::debug("bundle: {}", second.BriefReport());
   return stats;
 }

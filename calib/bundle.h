@@ -51,6 +51,9 @@ struct BundleOptions {
   double point_weight = 0.5;
   int max_iterations = 100;
   int threads = 0;
+  std::string linear_solver = "auto";  // auto | dense_schur | sparse_schur | iterative_schur
+  int dense_schur_max_frames = 100;    // auto: dense Schur up to this many posed frames
+  double function_tolerance = 1e-6;
 };
 
 struct BundleStats {
@@ -62,6 +65,8 @@ struct BundleStats {
   std::vector<double> frame_corner_rms_px;   // per frame (0 without corners)
   int iterations = 0;
   double initial_cost = 0, final_cost = 0;
+  std::string linear_solver;             // the one Ceres used
+  double solve_s = 0;                    // both Ceres solves, wall time
 };
 
 // Refines `problem` in place. Frames with posed = false are left out; a

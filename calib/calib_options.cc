@@ -55,8 +55,12 @@ nlohmann::json IntrinsicsOptions::ToJson() const {
 
 void SfmOptions::Read(OptionsReader& r) {
   r.Read("enabled", &enabled);
+  r.Read("mode", &mode);
+  r.ReadRange("seed_min_corners", &seed_min_corners, 4, 10000);
+  r.ReadRange("max_features", &max_features, 100, 100000);
   r.Read("colmap", &colmap);
   r.ReadRange("sequential_overlap", &sequential_overlap, 1, 1000);
+  r.ReadRange("seeded_overlap", &seeded_overlap, 1, 1000);
   r.ReadRange("ransac_trials", &ransac_trials, 10, 1000000);
   r.ReadRange("cross_pair_max_angle_deg", &cross_pair_max_angle_deg, 0.0, 180.0);
   r.ReadRange("cross_pairs_per_frame", &cross_pairs_per_frame, 0, 1000);
@@ -68,8 +72,13 @@ void SfmOptions::Read(OptionsReader& r) {
 }
 
 void SfmOptions::Check() const {
+  RELIT_REQUIRE(mode == "board_seeded" || mode == "incremental",
+                "sfm.mode must be board_seeded or incremental, got '", mode, "'");
+  RELIT_REQUIRE(seed_min_corners >= 4, "sfm.seed_min_corners must be >= 4 (PnP), got ", seed_min_corners);
+  RELIT_REQUIRE(max_features >= 100, "sfm.max_features must be >= 100, got ", max_features);
   RELIT_REQUIRE(!colmap.empty(), "sfm.colmap (the COLMAP executable) must not be empty");
-  RELIT_REQUIRE(sequential_overlap >= 1, "sfm.sequential_overlap must be >= 1");
+  RELIT_REQUIRE(sequential_overlap >= 1 && seeded_overlap >= 1,
+                "sfm.sequential_overlap and sfm.seeded_overlap must be >= 1");
   RELIT_REQUIRE(ransac_trials >= 10, "sfm.ransac_trials must be >= 10");
   RELIT_REQUIRE(min_registered >= 2, "sfm.min_registered must be >= 2");
   RELIT_REQUIRE(align_inlier_m > 0, "sfm.align_inlier_m must be positive");
@@ -78,8 +87,12 @@ void SfmOptions::Check() const {
 
 nlohmann::json SfmOptions::ToJson() const {
   return {{"enabled", enabled},
+          {"mode", mode},
+          {"seed_min_corners", seed_min_corners},
+          {"max_features", max_features},
           {"colmap", colmap},
           {"sequential_overlap", sequential_overlap},
+          {"seeded_overlap", seeded_overlap},
           {"ransac_trials", ransac_trials},
           {"cross_pair_max_angle_deg", cross_pair_max_angle_deg},
           {"cross_pairs_per_frame", cross_pairs_per_frame},
@@ -93,6 +106,9 @@ void RefineOptions::Read(OptionsReader& r) {
   r.ReadRange("huber_px", &huber_px, 1e-3, 100.0);
   r.ReadRange("outlier_px", &outlier_px, 0.1, 1000.0);
   r.ReadRange("max_iterations", &max_iterations, 1, 100000);
+  r.Read("linear_solver", &linear_solver);
+  r.ReadRange("dense_schur_max_frames", &dense_schur_max_frames, 0, 1000000);
+  r.ReadRange("function_tolerance", &function_tolerance, 1e-16, 0.1);
   r.ReadRange("max_corner_rms_px", &max_corner_rms_px, 0.01, 1000.0);
   r.ReadRange("max_ratio_error", &max_ratio_error, 0.001, 1.0);
   r.Finish();
@@ -101,6 +117,13 @@ void RefineOptions::Read(OptionsReader& r) {
 void RefineOptions::Check() const {
   RELIT_REQUIRE(huber_px > 0 && outlier_px > 0, "refine.huber_px and refine.outlier_px must be positive");
   RELIT_REQUIRE(max_iterations >= 1, "refine.max_iterations must be >= 1");
+  RELIT_REQUIRE(linear_solver == "auto" || linear_solver == "dense_schur" || linear_solver == "sparse_schur" ||
+                    linear_solver == "iterative_schur",
+                "refine.linear_solver must be auto, dense_schur, sparse_schur or iterative_schur, got '",
+                linear_solver, "'");
+  RELIT_REQUIRE(dense_schur_max_frames >= 0, "refine.dense_schur_max_frames must be >= 0");
+  RELIT_REQUIRE(function_tolerance > 0 && function_tolerance < 0.1,
+                "refine.function_tolerance must be in (0, 0.1), got ", function_tolerance);
   RELIT_REQUIRE(max_corner_rms_px > 0, "refine.max_corner_rms_px must be positive");
   RELIT_REQUIRE(max_ratio_error > 0, "refine.max_ratio_error must be positive");
 }
@@ -109,6 +132,9 @@ nlohmann::json RefineOptions::ToJson() const {
   return {{"huber_px", huber_px},
           {"outlier_px", outlier_px},
           {"max_iterations", max_iterations},
+          {"linear_solver", linear_solver},
+          {"dense_schur_max_frames", dense_schur_max_frames},
+          {"function_tolerance", function_tolerance},
           {"max_corner_rms_px", max_corner_rms_px},
           {"max_ratio_error", max_ratio_error}};
 }

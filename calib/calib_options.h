@@ -49,8 +49,18 @@ struct IntrinsicsOptions {
 
 struct SfmOptions {
   bool enabled = true;             // false: board poses only (no COLMAP)
+  // "board_seeded": frames with a good board pose enter COLMAP with that
+  // pose (point_triangulator), image_registrator places the rest;
+  // "incremental": COLMAP's incremental mapper from scratch, then aligned
+  // to the board (the slower path before issue 28).
+  std::string mode = "board_seeded";
+  int seed_min_corners = 6;        // board corners a frame needs to seed the model with its pose
+  int max_features = 8192;         // SIFT features per image (COLMAP's default)
   std::string colmap = "colmap";   // the COLMAP executable
-  int sequential_overlap = 10;     // neighbours matched in each phone's frame order
+  int sequential_overlap = 10;     // neighbours matched in each phone's frame order (incremental)
+  // The same for board_seeded: the board poses tie the model together, so
+  // fewer neighbours suffice (matching is most of COLMAP's time).
+  int seeded_overlap = 3;
   int ransac_trials = 1000;        // COLMAP geometric verification trials per image pair
   double cross_pair_max_angle_deg = 35.0;  // V/L frame pairs matched across phones
   int cross_pairs_per_frame = 4;
@@ -68,6 +78,14 @@ struct RefineOptions {
   double huber_px = 1.0;           // robust loss scale
   double outlier_px = 3.0;         // observations beyond this are dropped, then solved again
   int max_iterations = 100;
+  // Ceres linear solver: "auto" (dense Schur up to dense_schur_max_frames
+  // frames, sparse Schur above), "dense_schur", "sparse_schur" or
+  // "iterative_schur" (conjugate gradients, Schur-Jacobi preconditioner).
+  std::string linear_solver = "auto";
+  int dense_schur_max_frames = 100;
+  // Ceres stops when the cost changes by less than this fraction (1e-9
+  // bought no accuracy for 3x the time: docs/benchmarks.md, issue 28).
+  double function_tolerance = 1e-6;
   double max_corner_rms_px = 1.0;  // board-corner RMS above this: calibration rejected
   double max_ratio_error = 0.04;   // |measured/specified marker-to-square ratio - 1|
 

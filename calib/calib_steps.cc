@@ -175,6 +175,7 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   // the pass to the V/L model) and with their own frames further apart in
   // time than the sequential matcher reaches (the pass is one closed turn).
   std::vector<std::pair<std::string, std::string>> pairs;
+  const int overlap = so.mode == "board_seeded" ? so.seeded_overlap : so.sequential_overlap;
   const double max_angle = so.cross_pair_max_angle_deg * M_PI / 180.0;
   auto add_pairs = [&](size_t a, const std::function<bool(size_t)>& partner) {
     const Eigen::Vector3d da = problem->frames[a].cam_from_world.Inverse().translation.normalized();
@@ -198,7 +199,7 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
     } else if (device_of(a) == "geometry") {
       add_pairs(a, [&](size_t b) { return device_of(b) == "view" || device_of(b) == "light"; });
       add_pairs(a, [&](size_t b) {
-        return device_of(b) == "geometry" && frames[b].capture.index > frames[a].capture.index + so.sequential_overlap;
+        return device_of(b) == "geometry" && frames[b].capture.index > frames[a].capture.index + overlap;
       });
     }
   }
@@ -212,10 +213,22 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   run.colmap = so.colmap;
   run.image_dir = (fs::path(workspace) / "capture").string();
   run.work_dir = work_dir;
-  run.sequential_overlap = so.sequential_overlap;
+  run.sequential_overlap = overlap;
   run.ransac_trials = so.ransac_trials;
   run.threads = so.threads;
   run.min_registered = so.min_registered;
+  run.max_features = so.max_features;
+  if (so.mode == "board_seeded") {
+    // Frames whose board pose rests on enough corners keep it; COLMAP places the rest.
+    for (size_t i = 0; i < frames.size(); ++i) {
+      if (problem->frames[i].posed && static_cast<int>(frames[i].board.corner_ids.size()) >= so.seed_min_corners) {
+        run.known_poses[images[i].name] = problem->frames[i].cam_from_world;
+      }
+    }
+    RELIT_REQUIRE(run.known_poses.size() >= 2, "sfm.mode board_seeded: only ", run.known_poses.size(),
+                  " frames show >= sfm.seed_min_corners = ", so.seed_min_corners, " board corners; lower it or "
+                  "set sfm.mode: incremental in the --config file");
+  }
   const SfmResult sfm = RunColmapSfm(images, lenses, pairs, run);
   for (const auto& [step, seconds] : sfm.timings_s) (*timings_s)["colmap_" + step] = seconds;
 
@@ -270,6 +283,8 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   nlohmann::json unregistered = nlohmann::json::object();
   for (const auto& [name, reason] : sfm.unregistered) unregistered[name] = reason;
   return {{"ran", true},
+          {"mode", so.mode},
+          {"seeded_frames", run.known_poses.size()},
           {"images", sfm.images},
           {"registered", sfm.model.cam_from_model.size()},
           {"registered_by_device", sfm.registered_by_device},

@@ -115,6 +115,31 @@ class CalibSynthTest : public ::testing::Test {
     EXPECT_LE(s.corner_rms_px, 0.5);
   }
 
+  // Board + COLMAP with the lenses from the board clips, in `mode`; returns
+  // the calib report.
+  static json RunColmapJoint(const std::string& ws, const CalibOptions& base, const std::string& mode) {
+    CalibOptions o = base;
+    o.sfm.enabled = true;
+    o.sfm.mode = mode;
+    // The tiny capture's frames are ~10 deg apart (a real capture's 2-4):
+    // both paths match 6 neighbours, as before issue 28.
+    o.sfm.sequential_overlap = 6;
+    o.sfm.seeded_overlap = 6;
+    const CalibSummary s = RunCalibImpl(o);
+    // With the lenses from the board clips: the issue's targets. Without the
+    // clips the capture frames leave phone V's principal point loose (1.2 px
+    // in some runs, 0.11-0.31 deg; docs/calib.md), which calib_geometry_test
+    // and BoardOnlyCalibrationMatchesTruth cover.
+    ExpectAccurate(Measure(ws), s, 1.0);
+    const json report = ReadJsonFile(ws + "/calib/calib_report.json", "calib_report", 1);
+    std::cout << "sfm: " << report["sfm"].dump() << "\n";
+    EXPECT_EQ(report["sfm"]["mode"], mode);
+    EXPECT_GE(s.sfm_registered, o.sfm.min_registered);
+    EXPECT_GT(report["sfm"]["points"].get<int>(), 50);
+    EXPECT_LT(s.point_rms_px, 1.5);
+    return report;
+  }
+
   static fs::path* dir_;
   static fs::path* synth_dir_;
   static json truth_;
@@ -171,20 +196,16 @@ TEST_F(CalibSynthTest, BoardClipsCalibrateTheLenses) {
 
 TEST_F(CalibSynthTest, ColmapJointCalibrationMatchesTruth) {
   const std::string ws = Workspace("with_sfm");
-  CalibOptions o = OptionsWithBoardClips(ws);
-  o.sfm.enabled = true;
-  o.sfm.sequential_overlap = 6;
-  const CalibSummary s = RunCalibImpl(o);
-  // With the lenses from the board clips: the issue's targets. Without the
-  // clips the capture frames leave phone V's principal point loose (1.2 px
-  // in some runs, 0.11-0.31 deg; docs/calib.md), which calib_geometry_test
-  // and BoardOnlyCalibrationMatchesTruth cover.
-  ExpectAccurate(Measure(ws), s, 1.0);
-  const json report = ReadJsonFile(ws + "/calib/calib_report.json", "calib_report", 1);
-  std::cout << "sfm: " << report["sfm"].dump() << "\n";
-  EXPECT_GE(s.sfm_registered, o.sfm.min_registered);
-  EXPECT_GT(report["sfm"]["points"].get<int>(), 50);
-  EXPECT_LT(s.point_rms_px, 1.5);
+  const json report = RunColmapJoint(ws, OptionsWithBoardClips(ws), "board_seeded");
+  // The model is built in the board frame: the alignment finds scale 1.
+  EXPECT_GT(report["sfm"]["seeded_frames"].get<int>(), 5);
+  EXPECT_NEAR(report["sfm"]["alignment"]["scale_m_per_unit"].get<double>(), 1.0, 0.01);
+}
+
+TEST_F(CalibSynthTest, IncrementalMapperPathMatchesTruth) {
+  const std::string ws = Workspace("incremental");
+  const json report = RunColmapJoint(ws, OptionsWithBoardClips(ws), "incremental");
+  EXPECT_EQ(report["sfm"]["seeded_frames"].get<int>(), 0);
 }
 
 TEST_F(CalibSynthTest, WrongSquareSizeIsCaughtAndNothingIsWritten) {

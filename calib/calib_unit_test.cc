@@ -44,6 +44,14 @@ TEST(CalibOptionsTest, UnknownKeysAndBadBoardsAreErrors) {
   EXPECT_EQ(ok.ToJson()["board"]["dictionary"], "DICT_4X4_50");
   ok.light.flash_offset_m = {0.0, 1.0};
   EXPECT_THROW(ok.Check(), Error);
+  CalibOptions modes;
+  OptionsReader mode = OptionsReader::FromString("workspace: w\nsfm: {mode: hierarchical}\n", "calib.yaml");
+  modes.Read(mode);
+  EXPECT_THROW(modes.Check(), Error);
+  CalibOptions solver;
+  OptionsReader cg = OptionsReader::FromString("workspace: w\nrefine: {linear_solver: cholesky}\n", "calib.yaml");
+  solver.Read(cg);
+  EXPECT_THROW(solver.Check(), Error);
 }
 
 // A board image warped by a known homography; `truth` receives the board
@@ -207,6 +215,73 @@ TEST(BundleTest, RecoversLensAndPosesFromBoardCorners) {
   EXPECT_NEAR(problem.devices["view"].distortion.k1, truth.distortion.k1, 0.01);
   for (size_t i = 0; i < poses.size(); ++i) {
     EXPECT_LT((problem.frames[i].cam_from_world.Inverse().translation - poses[i].Inverse().translation).norm(), 1e-3);
+  }
+}
+
+// Board corners plus SfM points: the three linear solvers (points eliminated
+// first for the sparse and iterative ones) reach the same poses and lens.
+TEST(BundleTest, LinearSolversAgreeWithPoints) {
+  BoardSpec spec;
+  const Intrinsics truth = Intrinsics::FromFov(640, 480, 1.1);
+  BundleProblem base;
+  base.corners_world = CharucoCornersWorld(spec);
+  base.devices["view"] = truth;
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0, 0.1);
+  std::uniform_real_distribution<double> box(-0.06, 0.06);
+  std::vector<Rigid3> poses;
+  for (int i = 0; i < 16; ++i) {
+    const double a = i * 0.3;
+    const double r = 0.3 + 0.01 * i;  // varied distance and elevation: the lens is observable
+    poses.push_back(LookAt(Eigen::Vector3d(r * std::cos(a), r * std::sin(a), 0.08 + 0.025 * i),
+                           Eigen::Vector3d(0.01 * std::sin(3 * a), 0, 0), Eigen::Vector3d::UnitZ()));
+    BundleFrame f;
+    f.device = "view";
+    f.posed = true;
+    const Camera camera(truth, poses.back());
+    for (size_t c = 0; c < base.corners_world.size(); ++c) {
+      Eigen::Vector2d px;
+      if (!camera.Project(base.corners_world[c], &px)) continue;
+      f.corner_ids.push_back(static_cast<int>(c));
+      f.corners_px.push_back(px + Eigen::Vector2d(noise(rng), noise(rng)));
+    }
+    f.cam_from_world = Rigid3(poses.back().rotation, poses.back().translation + Eigen::Vector3d(0.003, -0.002, 0.004));
+    base.frames.push_back(f);
+  }
+  for (int k = 0; k < 40; ++k) {
+    BundlePoint point;
+    const Eigen::Vector3d x(box(rng), box(rng), 0.02 + box(rng) + 0.06);
+    for (int i = 0; i < 16; ++i) {
+      Eigen::Vector2d px;
+      if (Camera(truth, poses[i]).Project(x, &px)) point.observations.push_back({i, px + Eigen::Vector2d(noise(rng), noise(rng))});
+    }
+    point.position_m = x + Eigen::Vector3d(0.002, 0.001, -0.002);
+    base.points.push_back(point);
+  }
+  std::map<std::string, BundleProblem> solved;
+  for (const std::string solver : {"dense_schur", "sparse_schur", "iterative_schur"}) {
+    BundleProblem p = base;
+    BundleOptions o;
+    o.linear_solver = solver;
+    o.function_tolerance = 1e-10;  // the optimum, not the stop criterion (iterative_schur stops early at 1e-6)
+    const BundleStats stats = RefineBundle(&p, o);
+    EXPECT_EQ(stats.linear_solver, solver == "dense_schur" ? "DENSE_SCHUR"
+                                   : solver == "sparse_schur" ? "SPARSE_SCHUR" : "ITERATIVE_SCHUR");
+    EXPECT_GT(stats.point_observations, 400) << solver;
+    EXPECT_LT(stats.corner_rms_px, 0.2) << solver;
+    for (int i = 0; i < 16; ++i) {
+      // 0.1 px noise on 16 frames: ~1-2 mm; the solvers' agreement is checked below.
+      EXPECT_LT((p.frames[i].cam_from_world.Inverse().translation - poses[i].Inverse().translation).norm(), 3e-3)
+          << solver << " frame " << i;
+    }
+    solved[solver] = p;
+  }
+  for (const std::string solver : {"sparse_schur", "iterative_schur"}) {
+    EXPECT_NEAR(solved[solver].devices["view"].fx, solved["dense_schur"].devices["view"].fx, 0.05) << solver;
+    for (int i = 0; i < 16; ++i) {
+      EXPECT_LT((solved[solver].frames[i].cam_from_world.translation -
+                 solved["dense_schur"].frames[i].cam_from_world.translation).norm(), 1e-4) << solver;  // 0.1 mm
+    }
   }
 }
 

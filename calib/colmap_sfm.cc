@@ -63,6 +63,95 @@ int CountModelImages(const std::string& dir) {
   return lines / 2;
 }
 
+// Runs one SQL query on a COLMAP database (read-only), calling `row` per row.
+void QueryDatabase(const std::string& path, const char* sql, const std::function<void(sqlite3_stmt*)>& row) {
+  sqlite3* db = nullptr;
+  if (sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
+    const std::string message = db ? sqlite3_errmsg(db) : "out of memory";
+    sqlite3_close(db);
+    Fail("cannot open the COLMAP database ", path, ": ", message);
+  }
+  sqlite3_stmt* statement = nullptr;
+  if (sqlite3_prepare_v2(db, sql, -1, &statement, nullptr) != SQLITE_OK) {
+    const std::string message = sqlite3_errmsg(db);
+    sqlite3_close(db);
+    Fail("COLMAP database ", path, ": ", message, " (in '", sql, "')");
+  }
+  while (sqlite3_step(statement) == SQLITE_ROW) row(statement);
+  sqlite3_finalize(statement);
+  sqlite3_close(db);
+}
+
+// The board-seeded start: the known poses as a COLMAP text model with the
+// database's image and camera ids. POINTS2D lines stay empty: COLMAP takes
+// the keypoints from the database.
+void WriteKnownPoseModel(const std::string& dir, const std::string& database,
+                         const std::map<std::string, Intrinsics>& lenses, const std::vector<SfmImage>& images,
+                         const std::map<std::string, Rigid3>& known_poses) {
+  const std::map<std::string, ColmapIds> ids = ReadColmapImageIds(database);
+  fs::create_directories(dir);
+  std::map<std::string, long> camera_of_device;
+  for (const SfmImage& image : images) {
+    const auto it = ids.find(image.name);
+    RELIT_REQUIRE(it != ids.end(), "COLMAP database ", database, " lacks image ", image.name,
+                  ": feature extraction failed for it, see the colmap_feature_extractor.log beside it");
+    camera_of_device[image.device] = it->second.camera_id;
+  }
+  std::ofstream cameras(fs::path(dir) / "cameras.txt");
+  for (const auto& [device, camera_id] : camera_of_device) {
+    const Intrinsics& lens = lenses.at(device);
+    cameras << camera_id << " OPENCV " << lens.width << " " << lens.height << " ";
+    std::string params = Params(lens);
+    std::replace(params.begin(), params.end(), ',', ' ');
+    cameras << params << "\n";
+  }
+  std::ofstream out(fs::path(dir) / "images.txt");
+  out.precision(17);
+  for (const SfmImage& image : images) {
+    const auto pose = known_poses.find(image.name);
+    if (pose == known_poses.end()) continue;
+    const Eigen::Quaterniond& q = pose->second.rotation;
+    const Eigen::Vector3d& t = pose->second.translation;
+    const ColmapIds& id = ids.at(image.name);
+    out << id.image_id << " " << q.w() << " " << q.x() << " " << q.y() << " " << q.z() << " " << t.x() << " "
+        << t.y() << " " << t.z() << " " << id.camera_id << " " << image.name << "\n\n";
+  }
+  std::ofstream(fs::path(dir) / "points3D.txt");
+}
+
+// The board-seeded model in `out_dir`: points triangulated from the known
+// poses (held fixed), the other images registered to those points, and the
+// points triangulated again with every registered pose fixed.
+void RunSeeded(const SfmRunOptions& o, const std::string& database, const std::vector<SfmImage>& images,
+               const std::map<std::string, Intrinsics>& lenses, const std::string& out_dir,
+               const std::string& mapper_flags, std::map<std::string, double>* timings_s) {
+  const std::string known = (fs::path(o.work_dir) / "known_poses").string();
+  fs::remove_all(known);
+  WriteKnownPoseModel(known, database, lenses, images, o.known_poses);
+  bool all_known = true;
+  for (const SfmImage& image : images) all_known = all_known && o.known_poses.count(image.name);
+  const std::string triangulated = all_known ? out_dir : (fs::path(o.work_dir) / "triangulated").string();
+  fs::create_directories(triangulated);
+  const std::string db = " --database_path " + ShellQuote(database) + " --random_seed 1";
+  (*timings_s)["point_triangulator"] = RunStep(
+      o, "point_triangulator",
+      db + " --image_path " + ShellQuote(o.image_dir) + " --input_path " + ShellQuote(known) +
+          " --output_path " + ShellQuote(triangulated) + mapper_flags);
+  if (all_known) return;
+  const std::string registered = (fs::path(o.work_dir) / "registered").string();
+  fs::create_directories(registered);
+  (*timings_s)["image_registrator"] = RunStep(
+      o, "image_registrator",
+      db + " --input_path " + ShellQuote(triangulated) + " --output_path " + ShellQuote(registered) + mapper_flags);
+  // image_registrator only links the new frames to existing points: a second
+  // triangulation (poses still fixed) extends the tracks through them.
+  fs::create_directories(out_dir);
+  (*timings_s)["point_triangulator"] += RunStep(
+      o, "point_triangulator",
+      db + " --image_path " + ShellQuote(o.image_dir) + " --input_path " + ShellQuote(registered) +
+          " --output_path " + ShellQuote(out_dir) + mapper_flags);
+}
+
 }  // namespace
 
 SfmModel ReadColmapTextModel(const std::string& dir) {
@@ -113,31 +202,23 @@ SfmModel ReadColmapTextModel(const std::string& dir) {
 }
 
 void ReadColmapDatabase(const std::string& path, std::map<std::string, int>* keypoints, int* verified_pairs) {
-  sqlite3* db = nullptr;
-  if (sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
-    const std::string message = db ? sqlite3_errmsg(db) : "out of memory";
-    sqlite3_close(db);
-    Fail("cannot open the COLMAP database ", path, ": ", message);
-  }
-  auto query = [&](const char* sql, const std::function<void(sqlite3_stmt*)>& row) {
-    sqlite3_stmt* statement = nullptr;
-    if (sqlite3_prepare_v2(db, sql, -1, &statement, nullptr) != SQLITE_OK) {
-      const std::string message = sqlite3_errmsg(db);
-      sqlite3_close(db);
-      Fail("COLMAP database ", path, ": ", message, " (in '", sql, "')");
-    }
-    while (sqlite3_step(statement) == SQLITE_ROW) row(statement);
-    sqlite3_finalize(statement);
-  };
-  query("SELECT images.name, keypoints.rows FROM images LEFT JOIN keypoints ON "
-        "images.image_id = keypoints.image_id",
-        [&](sqlite3_stmt* s) {
-          (*keypoints)[reinterpret_cast<const char*>(sqlite3_column_text(s, 0))] = sqlite3_column_int(s, 1);
-        });
+  QueryDatabase(path, "SELECT images.name, keypoints.rows FROM images LEFT JOIN keypoints ON "
+                      "images.image_id = keypoints.image_id",
+                [&](sqlite3_stmt* s) {
+                  (*keypoints)[reinterpret_cast<const char*>(sqlite3_column_text(s, 0))] = sqlite3_column_int(s, 1);
+                });
   *verified_pairs = 0;
-  query("SELECT COUNT(*) FROM two_view_geometries WHERE rows >= 15",
-        [&](sqlite3_stmt* s) { *verified_pairs = sqlite3_column_int(s, 0); });
-  sqlite3_close(db);
+  QueryDatabase(path, "SELECT COUNT(*) FROM two_view_geometries WHERE rows >= 15",
+                [&](sqlite3_stmt* s) { *verified_pairs = sqlite3_column_int(s, 0); });
+}
+
+std::map<std::string, ColmapIds> ReadColmapImageIds(const std::string& path) {
+  std::map<std::string, ColmapIds> ids;
+  QueryDatabase(path, "SELECT name, image_id, camera_id FROM images", [&](sqlite3_stmt* s) {
+    ids[reinterpret_cast<const char*>(sqlite3_column_text(s, 0))] = {sqlite3_column_int64(s, 1),
+                                                                     sqlite3_column_int64(s, 2)};
+  });
+  return ids;
 }
 
 SfmResult RunColmapSfm(const std::vector<SfmImage>& images, const std::map<std::string, Intrinsics>& lenses,
@@ -167,7 +248,8 @@ SfmResult RunColmapSfm(const std::vector<SfmImage>& images, const std::map<std::
         o, "feature_extractor",
         common + " --image_path " + ShellQuote(o.image_dir) + " --image_list_path " + ShellQuote(list) +
             " --ImageReader.camera_model OPENCV --ImageReader.single_camera 1 --ImageReader.camera_params " +
-            Params(lens) + " --SiftExtraction.use_gpu 0 --SiftExtraction.num_threads " + std::to_string(threads));
+            Params(lens) + " --SiftExtraction.use_gpu 0 --SiftExtraction.num_threads " + std::to_string(threads) +
+            " --SiftExtraction.max_num_features " + std::to_string(o.max_features));
   }
   result.timings_s["sequential_matcher"] = RunStep(
       o, "sequential_matcher",
@@ -189,11 +271,15 @@ SfmResult RunColmapSfm(const std::vector<SfmImage>& images, const std::map<std::
   const std::string sparse = (fs::path(o.work_dir) / "sparse").string();
   fs::remove_all(sparse);
   fs::create_directories(sparse);
-  result.timings_s["mapper"] = RunStep(
-      o, "mapper",
-      common + " --image_path " + ShellQuote(o.image_dir) + " --output_path " + ShellQuote(sparse) +
-          " --Mapper.ba_refine_focal_length 0 --Mapper.ba_refine_principal_point 0"
-          " --Mapper.ba_refine_extra_params 0 --Mapper.num_threads " + std::to_string(threads));
+  const std::string fixed_lens =
+      " --Mapper.ba_refine_focal_length 0 --Mapper.ba_refine_principal_point 0 --Mapper.ba_refine_extra_params 0"
+      " --Mapper.num_threads " + std::to_string(threads);
+  if (o.known_poses.empty()) {
+    result.timings_s["mapper"] = RunStep(o, "mapper", common + " --image_path " + ShellQuote(o.image_dir) +
+                                                          " --output_path " + ShellQuote(sparse) + fixed_lens);
+  } else {
+    RunSeeded(o, database, images, lenses, sparse + "/0", fixed_lens, &result.timings_s);
+  }
 
   // COLMAP may split the sequence into several models: take the largest.
   std::string best_dir;

@@ -1,8 +1,11 @@
 // Structure from motion with the COLMAP command line (Debian's colmap 3.8,
 // CPU only): feature extraction per phone with its board-calibrated lens,
 // sequential matching in each phone's frame order, cross-phone pairs
-// ("loop closure" between the two phones) imported as a pair list, the
-// incremental mapper, and a text export of the largest model. The SQLite
+// ("loop closure" between the two phones) imported as a pair list, then
+// either the incremental mapper ("incremental") or, with the board's poses
+// as known poses ("board_seeded"), point_triangulator on those poses and
+// image_registrator for the frames the board cannot place; and a text
+// export of the largest model. The SQLite
 // database and the text model are read back in C++. Pixel coordinates are
 // converted from COLMAP's (0.5, 0.5) to relit's (0, 0) top-left pixel
 // centre.
@@ -32,6 +35,10 @@ struct SfmRunOptions {
   int ransac_trials = 1000;  // geometric verification of each pair
   int threads = 0;
   int min_registered = 6;
+  int max_features = 8192;  // SIFT features per image (COLMAP's default)
+  // Known cam_from_world poses by image name (board_seeded); empty: the
+  // incremental mapper builds the model from scratch.
+  std::map<std::string, Rigid3> known_poses;
 };
 
 struct SfmTrackObservation {
@@ -58,7 +65,10 @@ struct SfmResult {
 };
 
 // Runs COLMAP. Lenses are given per device (OPENCV model, fixed during
-// mapping). `pairs` are extra image pairs to match (names). Throws
+// mapping). `pairs` are extra image pairs to match (names). With
+// known_poses, those images keep their poses (the model is then in their
+// frame, not an arbitrary one) and the rest are registered to the points
+// triangulated from them. Throws
 // relit::Error when a COLMAP step fails or registers fewer than
 // min_registered images, naming the step and its log file.
 SfmResult RunColmapSfm(const std::vector<SfmImage>& images,
@@ -73,6 +83,13 @@ SfmModel ReadColmapTextModel(const std::string& dir);
 // COLMAP database.
 void ReadColmapDatabase(const std::string& path, std::map<std::string, int>* keypoints,
                         int* verified_pairs);
+
+// COLMAP's image and camera ids by image name, from a database.
+struct ColmapIds {
+  long image_id = 0;
+  long camera_id = 0;
+};
+std::map<std::string, ColmapIds> ReadColmapImageIds(const std::string& path);
 
 // Writes a COLMAP text model (cameras.txt, images.txt, points3D.txt) in
 // COLMAP's pixel convention. Cameras: one per device, numbered from 1 in
