@@ -117,7 +117,8 @@ class CalibSynthTest : public ::testing::Test {
 
   // Board + COLMAP with the lenses from the board clips, in `mode`; returns
   // the calib report.
-  static json RunColmapJoint(const std::string& ws, const CalibOptions& base, const std::string& mode) {
+  static json RunColmapJoint(const std::string& ws, const CalibOptions& base, const std::string& mode,
+                             double scale = 1.0) {
     CalibOptions o = base;
     o.sfm.enabled = true;
     o.sfm.mode = mode;
@@ -130,7 +131,7 @@ class CalibSynthTest : public ::testing::Test {
     // clips the capture frames leave phone V's principal point loose (1.2 px
     // in some runs, 0.11-0.31 deg; docs/calib.md), which calib_geometry_test
     // and BoardOnlyCalibrationMatchesTruth cover.
-    ExpectAccurate(Measure(ws), s, 1.0);
+    ExpectAccurate(Measure(ws), s, scale);
     const json report = ReadJsonFile(ws + "/calib/calib_report.json", "calib_report", 1);
     std::cout << "sfm: " << report["sfm"].dump() << "\n";
     EXPECT_EQ(report["sfm"]["mode"], mode);
@@ -196,16 +197,19 @@ TEST_F(CalibSynthTest, BoardClipsCalibrateTheLenses) {
 
 TEST_F(CalibSynthTest, ColmapJointCalibrationMatchesTruth) {
   const std::string ws = Workspace("with_sfm");
-  const json report = RunColmapJoint(ws, OptionsWithBoardClips(ws), "board_seeded");
+  const json report = RunColmapJoint(ws, OptionsWithBoardClips(ws), "incremental");
+  EXPECT_EQ(report["sfm"]["seeded_frames"].get<int>(), 0);
+}
+
+// The board-seeded path (not the default: less accurate for phone L so
+// far). Phone V's rotation measured 0.18-0.20 deg over five runs: asserted
+// at 0.25 deg (scale 1.25); the other targets as on the default path.
+TEST_F(CalibSynthTest, BoardSeededPathMatchesTruth) {
+  const std::string ws = Workspace("seeded");
+  const json report = RunColmapJoint(ws, OptionsWithBoardClips(ws), "board_seeded", 1.25);
   // The model is built in the board frame: the alignment finds scale 1.
   EXPECT_GT(report["sfm"]["seeded_frames"].get<int>(), 5);
   EXPECT_NEAR(report["sfm"]["alignment"]["scale_m_per_unit"].get<double>(), 1.0, 0.01);
-}
-
-TEST_F(CalibSynthTest, IncrementalMapperPathMatchesTruth) {
-  const std::string ws = Workspace("incremental");
-  const json report = RunColmapJoint(ws, OptionsWithBoardClips(ws), "incremental");
-  EXPECT_EQ(report["sfm"]["seeded_frames"].get<int>(), 0);
 }
 
 TEST_F(CalibSynthTest, WrongSquareSizeIsCaughtAndNothingIsWritten) {
