@@ -54,7 +54,6 @@ void CuesOnlyBaseline::Accumulate(const Image& cue_frame, const Image& target_rg
   RELIT_REQUIRE(cue_frame.width() == target_rgb.width() && cue_frame.height() == target_rgb.height() &&
                     matte.width() == cue_frame.width() && matte.height() == cue_frame.height(),
                 "cues-only baseline: cue frame, target and matte differ in size");
-  solved_ = false;
   for (int y = 0; y < cue_frame.height(); ++y) {
     for (int x = 0; x < cue_frame.width(); ++x) {
       const float* p = cue_frame.pixel(x, y);

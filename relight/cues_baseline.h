@@ -19,7 +19,8 @@ class CuesOnlyBaseline {
  public:
   // `ridge`: weight of the pull towards the global fit, relative to one
   // pixel's contribution.
-  explicit CuesOnlyBaseline(int resolution_px = 128, double ridge = 4.0);
+  static constexpr double kDefaultRidge = 4.0;
+  explicit CuesOnlyBaseline(int resolution_px = 128, double ridge = kDefaultRidge);
 
   // Adds the foreground pixels (matte >= 0.5, coverage >= 0.5) of one
   // training frame: a cue frame (channels as cue_frames.h), the linear

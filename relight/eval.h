@@ -34,6 +34,7 @@
 #include "core/camera.h"
 #include "core/image.h"
 #include "relight/cue_frames.h"
+#include "relight/cues_baseline.h"
 #include "relight/metrics.h"
 #include "relight/stage_options.h"
 
@@ -53,7 +54,7 @@ struct EvalOptions {
   uint64_t seed = 1;                // per-image cue seeds derive from it
   int max_views = 0;                // 0 = every eval view (else the first N of each view set, for quick checks)
   int baseline_resolution_px = 128; // cues_only texel grid
-  double baseline_ridge = 4.0;      // cues_only pull towards the global fit (pixels' worth)
+  double baseline_ridge = CuesOnlyBaseline::kDefaultRidge;  // cues_only pull towards the global fit (pixels' worth)
   double error_map_scale = 5.0;     // error PNGs show |pred - GT| x this
   // The capture's linear white level: render and truth are clipped per RGB
   // channel to [0, clip_radiance] before scoring, since an 8-bit video holds

@@ -24,6 +24,13 @@ double RequireMaxRadiance(double max_radiance) {
   return max_radiance;
 }
 
+// The proxy coverage as a logit, kept inside [1e-3, 1 - 1e-3] so uncovered
+// pixels stay finite: the residual variant's alpha before its correction.
+torch::Tensor CoverageLogit(const torch::Tensor& coverage) {
+  const auto clamped = coverage.clamp(1e-3, 1.0 - 1e-3);
+  return torch::log(clamped) - torch::log1p(-clamped);
+}
+
 }  // namespace
 
 
@@ -139,14 +146,11 @@ ModelOutput DnlModelImpl::Forward(const Batch& batch_in) {
   const auto input = options_.format.is_sh() ? BuildShNetworkInput(texture, batch.cues, encoding_.max_radiance())
                                              : BuildNetworkInput(texture, batch.cues, encoding_.max_radiance());
   if (!options_.residual()) return {renderer_->forward(input), mask_net_->forward(texture)};
-  // Corrections on top of the cue regression and of the proxy's coverage
-  // (logit of a coverage kept inside [1e-3, 1 - 1e-3]).
+  // Corrections on top of the cue regression and of the proxy's coverage.
   const auto weights = SampleNearest(regression_, batch.uv, batch.coverage);
   const auto regression = encoding_.Encode(CueRegression(weights, batch.cues));
-  const auto coverage = batch.coverage.clamp(1e-3, 1.0 - 1e-3);
-  const auto coverage_logit = torch::log(coverage) - torch::log1p(-coverage);
   return {regression + renderer_gate_ * renderer_->forward(input),
-          coverage_logit + mask_gate_ * mask_net_->forward(texture)};
+          CoverageLogit(batch.coverage) + mask_gate_ * mask_net_->forward(texture)};
 }
 
 std::vector<torch::Tensor> DnlModelImpl::gates() const {
@@ -174,11 +178,10 @@ torch::Tensor DnlModelImpl::Render(const Batch& batch) {
     const Batch window = ObjectWindow(batch, options_.object_window_margin_px, &top, &left);
     const ModelOutput inside = Forward(window);
     const auto options = inside.rgb_log.options();
-    // Outside the window: no radiance and no coverage (logit of 1e-3, what
-    // the residual variant reads there), the networks' outputs inside.
+    // Outside the window: no radiance, and no coverage (what the residual
+    // variant reads there); the networks' outputs inside.
     output.rgb_log = torch::full({batch.batch_size(), 3, batch.height(), batch.width()}, -1.0, options);
-    output.mask_logit = torch::full({batch.batch_size(), 1, batch.height(), batch.width()},
-                                    std::log(1e-3 / (1 - 1e-3)), options);
+    output.mask_logit = CoverageLogit(batch.coverage.to(options));
     output.rgb_log.slice(2, top, top + window.height()).slice(3, left, left + window.width()).copy_(inside.rgb_log);
     output.mask_logit.slice(2, top, top + window.height()).slice(3, left, left + window.width())
         .copy_(inside.mask_logit);

@@ -134,7 +134,6 @@ int RunRelight(int argc, char** argv) {
     options.Read(reader);
   }
   options.workspace = workspace;
-  options.model.format = options.cues.Format();  // the model reads what the cues step renders
   // Export flags given on the command line win over the config's `export:`.
   for (const auto& [flag, apply] : std::initializer_list<std::pair<const char*, std::function<void()>>>{
            {"--no-interop", [&] { options.exports.enabled = !no_interop; }},

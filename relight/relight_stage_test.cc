@@ -124,7 +124,7 @@ TEST_F(RelightStageTest, TrainedModelBeatsCuesOnlyBaselineOnHeldOutFrames) {
   Trainer untrained(untrained_options, training.optimizer);
   std::vector<Batch> train_frames;
   for (int index : plan.partitions[0].train_frames) train_frames.push_back(LoadPlanFrame(dir_, plan.frames[index]));
-  WarmStartCueRegression(untrained.model(), train_frames, 4.0);
+  WarmStartCueRegression(untrained.model(), train_frames, CuesOnlyBaseline::kDefaultRidge);
   std::vector<ImageMetrics> model_metrics, untrained_metrics, baseline_metrics;
   for (int index : plan.partitions[0].validation_frames) {
     const PlanFrame& f = plan.frames[index];

@@ -15,6 +15,7 @@
 #include "core/progress.h"
 #include "core/run_record.h"
 #include "relight/checkpoint.h"
+#include "relight/cues_baseline.h"
 #include "relight/cue_stage.h"
 #include "relight/dataset.h"
 #include "relight/metrics.h"
@@ -27,8 +28,6 @@ namespace relit::relight {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-// The cues-only baseline's pull towards the global fit (eval's default).
-constexpr double kWarmStartRidge = 4.0;
 
 
 
@@ -120,9 +119,9 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
 
   if (fresh && model_options.residual()) {
     auto timer = record.Time("warm_start");
-    const WarmStartResult start = WarmStartCueRegression(trainer->model(), frames, kWarmStartRidge);
+    const WarmStartResult start = WarmStartCueRegression(trainer->model(), frames, CuesOnlyBaseline::kDefaultRidge);
     record.Set("warm_start", json{{"pixels", start.pixels}, {"texels_seen", start.texels_seen},
-                                  {"texels", start.texels}, {"ridge", kWarmStartRidge}});
+                                  {"texels", start.texels}, {"ridge", CuesOnlyBaseline::kDefaultRidge}});
     spdlog::info("train: partition {}: cue regression fitted on {} pixels ({} of {} texels seen)", partition,
                  start.pixels, start.texels_seen, start.texels);
   }

@@ -12,6 +12,7 @@
 #include "core/run_record.h"
 #include "relight/checkpoint.h"
 #include "relight/model.h"
+#include "relight/cues_baseline.h"
 #include "relight/warm_start.h"
 #include "relight/test_scene.h"
 
@@ -272,7 +273,7 @@ TEST(ResidualModelTest, CorrectionsImproveOnTheCueRegression) {
   train_options.seed = 3;
   train_options.threads = 1;
   Trainer trainer(model_options, train_options);
-  WarmStartCueRegression(trainer.model(), frames, 4.0);
+  WarmStartCueRegression(trainer.model(), frames, CuesOnlyBaseline::kDefaultRidge);
   auto rgb_loss = [&] {
     double sum = 0;
     torch::NoGradGuard no_grad;
