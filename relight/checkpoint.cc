@@ -31,6 +31,8 @@ ModelOptions ModelOptionsFromJson(const nlohmann::json& j_in, const std::string&
   nlohmann::json j = j_in, format = nlohmann::json::object();
   // Checkpoints from before the variants hold the DNL model.
   if (j.is_object() && !j.contains("variant")) j["variant"] = "dnl";
+  // Residual checkpoints from before the smooth fit read their weights per texel.
+  if (j.is_object() && !j.contains("cue_fit")) j["cue_fit"] = "per_texel";
   if (j.is_object() && !j.contains("object_window_margin_px")) j["object_window_margin_px"] = 0;
   for (const char* key : {"input", "bases"}) {
     if (j.is_object() && j.contains(key)) {

@@ -103,8 +103,8 @@ std::string CompareEvaluations(const std::vector<CompareInput>& inputs) {
     std::map<std::string, Row> by_method;
     for (const std::string& method : JsonField(j, "methods", where).get<std::vector<std::string>>()) {
       Row row;
-      if (method == "cues_only") {
-        row.label = prefix + ": cues_only";
+      if (method == "cues_only" || method == "cue_fit") {
+        row.label = prefix + ": " + method;
         row.steps = "-";
         row.budget = "fit, no training";
       } else {

@@ -17,6 +17,7 @@
 #include "core/run_record.h"
 #include "relight/asset.h"
 #include "relight/cue_stage.h"
+#include "relight/cue_texture_fit.h"
 #include "relight/cues_baseline.h"
 #include "relight/plan.h"
 #include "relight/render_stage.h"
@@ -234,11 +235,12 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
   // The light input of this workspace (cues.input / cues.bases): the cue
   // frames eval renders must be what the models were trained on.
   const CueFormat format = ReadCuesFile((root / "relight/cues/cues.json").string()).format;
-  if (!format.is_default() && std::count(methods.begin(), methods.end(), "cues_only") > 0) {
-    methods.erase(std::find(methods.begin(), methods.end(), "cues_only"));
-    skipped.push_back("cues_only");
-    skipped_reasons["cues_only"] = "the cues-only baseline regresses the 5 default radiance cues; this workspace's "
-                                   "cue frames hold " + format.Describe() + " (score it on a default workspace)";
+  for (const char* fit : {"cue_fit", "cues_only"}) {
+    if (format.is_default() || std::count(methods.begin(), methods.end(), fit) == 0) continue;
+    methods.erase(std::find(methods.begin(), methods.end(), fit));
+    skipped.push_back(fit);
+    skipped_reasons[fit] = "the cue regressions fit the 5 default radiance cues; this workspace's "
+                      "cue frames hold " + format.Describe() + " (score it on a default workspace)";
   }
   for (const std::string& m : skipped) spdlog::info("eval: {} skipped ({})", m, skipped_reasons[m].get<std::string>());
   const AssetDescription asset = DescribeWorkspace(root.string(), ModelSet::kFinal);
@@ -248,6 +250,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
                 "--partition K first)");
   std::map<std::string, std::unique_ptr<RelitRenderer>> renderers;
   std::unique_ptr<CuesOnlyBaseline> baseline;
+  std::unique_ptr<CueTextureFit> cue_fit;
   int baseline_frames = 0;
   {
     auto timer = record.Time("load");
@@ -263,23 +266,29 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
                     ": retrain (relit-relight plan, train) after changing cues.input / cues.bases");
     }
   }
-  if (std::count(methods.begin(), methods.end(), "cues_only") > 0) {
-    auto timer = record.Time("fit_cues_only");
+  const bool want_cues_only = std::count(methods.begin(), methods.end(), "cues_only") > 0;
+  const bool want_cue_fit = std::count(methods.begin(), methods.end(), "cue_fit") > 0;
+  if (want_cues_only || want_cue_fit) {
+    auto timer = record.Time("fit_cue_regressions");
     const Plan plan = ReadPlan((root / "relight/plan/plan.json").string());
-    baseline = std::make_unique<CuesOnlyBaseline>(options.baseline_resolution_px, options.baseline_ridge);
+    if (want_cues_only) baseline = std::make_unique<CuesOnlyBaseline>(options.baseline_resolution_px, options.baseline_ridge);
+    if (want_cue_fit) cue_fit = std::make_unique<CueTextureFit>(options.cue_fit_resolution_px, CueFitOptions{});
     std::vector<const PlanFrame*> frames;
     for (const PlanFrame& f : plan.frames) {
       if (!f.validation) frames.push_back(&f);
     }
     RELIT_REQUIRE(!frames.empty(), (root / "relight/plan/plan.json").string(), " has no training frame");
-    Progress progress("eval: fit cues_only", static_cast<int64_t>(frames.size()));
+    Progress progress("eval: fit cue regressions", static_cast<int64_t>(frames.size()));
     for (const PlanFrame* f : frames) {
-      baseline->Accumulate(ReadCueFrame((root / f->cues).string()), ReadImage((root / f->image).string()),
-                           ReadImage((root / f->matte).string()));
+      const Image cues = ReadCueFrame((root / f->cues).string()), image = ReadImage((root / f->image).string()),
+                  matte = ReadImage((root / f->matte).string());
+      if (baseline) baseline->Accumulate(cues, image, matte);
+      if (cue_fit) cue_fit->AddFrame(cues, image, matte);
       progress.Advance();
     }
     progress.Finish();
-    baseline->Solve();
+    if (baseline) baseline->Solve();
+    if (cue_fit) cue_fit->Solve();
     baseline_frames = static_cast<int>(frames.size());
   }
 
@@ -351,6 +360,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
         {
           auto timer = record.Time("predict_" + method);
           predicted = method == "cues_only" ? baseline->Predict(cues)
+                      : method == "cue_fit" ? cue_fit->Predict(cues)
                                             : renderers.at(method)->RenderCues(cues, camera.Center());
         }
         ClipRadiance(&predicted, options.clip_radiance);
@@ -413,6 +423,9 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
       {"cues_only", {{"training_frames", baseline_frames},
                      {"resolution_px", options.baseline_resolution_px},
                      {"pixels", baseline ? baseline->pixels_used() : 0}}},
+      {"cue_fit", {{"training_frames", baseline_frames},
+                   {"resolution_px", options.cue_fit_resolution_px},
+                   {"pixels", cue_fit ? cue_fit->pixels() : 0}}},
       {"models", asset.partition_models},
       {"zoom_pngs", zooms},
       {"options", options.ToJson()},

@@ -8,6 +8,9 @@
 //   model              the workspace's final models (augmented when present)
 //   model_point_light  the point-light models only, when some partition is
 //                      augmented (before vs after augmentation)
+//   cue_fit            the smooth cue regression (cue_texture_fit.h, the
+//                      residual model's starting point) without any network,
+//                      fitted on the plan's training frames
 //   cues_only          the per-texel cue regression (cues_baseline.h) fitted
 //                      on the plan's training frames
 // Render and truth are clipped at the capture's white level
@@ -47,14 +50,16 @@ namespace relit::relight {
 
 // Key `eval:` of the relight section.
 struct EvalOptions {
-  // Methods to score, in table order: model, model_point_light, cues_only.
-  // model_point_light is skipped (with a note) when no partition is augmented.
-  std::vector<std::string> methods = {"model", "model_point_light", "cues_only"};
+  // Methods to score, in table order: model, model_point_light, cue_fit,
+  // cues_only. model_point_light is skipped (with a note) when no partition
+  // is augmented.
+  std::vector<std::string> methods = {"model", "model_point_light", "cue_fit", "cues_only"};
   int samples_per_pixel = 0;        // cue paths for the eval views; 0 = render.samples_per_pixel
   uint64_t seed = 1;                // per-image cue seeds derive from it
   int max_views = 0;                // 0 = every eval view (else the first N of each view set, for quick checks)
   int baseline_resolution_px = 128; // cues_only texel grid
   double baseline_ridge = CuesOnlyBaseline::kDefaultRidge;  // cues_only pull towards the global fit (pixels' worth)
+  int cue_fit_resolution_px = 256;  // cue_fit texel grid (the fit's other options: train.cue_fit defaults)
   double error_map_scale = 5.0;     // error PNGs show |pred - GT| x this
   // The capture's linear white level: render and truth are clipped per RGB
   // channel to [0, clip_radiance] before scoring, since an 8-bit video holds

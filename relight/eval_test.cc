@@ -115,20 +115,20 @@ TEST_F(EvalTest, ScoresModelAndCuesOnlyPerLightTypeAndWritesImages) {
   for (const char* file : {"eval.md", "run.json"}) EXPECT_TRUE(fs::exists(out / file)) << file;
   EXPECT_TRUE(fs::exists(dir_ + "/ws/relight/logs/eval.log"));
   // No augmented model: before/after augmentation is not a comparison here.
-  EXPECT_EQ(eval["methods"], json({"model", "cues_only"}));
+  EXPECT_EQ(eval["methods"], json({"model", "cue_fit", "cues_only"}));
   EXPECT_EQ(eval["skipped_methods"], json({"model_point_light"}));
   EXPECT_NEAR(eval["light_unit"]["factor"].get<double>(), 1.0 / 0.45, 1e-9);  // cue flash 1, tiny flash 0.45 W/sr
-  // tiny: (2 extrapolation + 1 interpolation) views x (2 point + 1 directional + 2 environment) lights, 2 methods.
+  // tiny: (2 extrapolation + 1 interpolation) views x (2 point + 1 directional + 2 environment) lights, 3 methods.
   EXPECT_EQ(eval["views"], 3);
   EXPECT_EQ(eval["lights"], 5);
-  ASSERT_EQ(eval["images"].size(), 30u);
+  ASSERT_EQ(eval["images"].size(), 45u);
   int interpolation_rows = 0;
   for (const json& row : eval["summary_by_view_set"]) {
     const int expected_images = row["light_type"] == "all" ? 5 : row["light_type"] == "directional" ? 1 : 2;
     EXPECT_EQ(row["images"].get<int>(), (row["view_set"] == "interpolation" ? 1 : 2) * expected_images) << row;
     if (row["view_set"] == "interpolation") ++interpolation_rows;
   }
-  EXPECT_EQ(interpolation_rows, 2 * 4);  // 2 methods x (3 types + all)
+  EXPECT_EQ(interpolation_rows, 3 * 4);  // 3 methods x (3 types + all)
   for (const json& image : eval["images"]) {
     for (const char* key : {"psnr_db", "mae", "ssim", "alpha_mae"}) {
       ASSERT_TRUE(image[key].is_number()) << key << " " << image.dump();
@@ -139,17 +139,17 @@ TEST_F(EvalTest, ScoresModelAndCuesOnlyPerLightTypeAndWritesImages) {
       EXPECT_TRUE(fs::exists(out / image[key].get<std::string>())) << image[key];
     }
   }
-  // Truth | model | cues_only zoomed on the object, one strip per (view, light).
+  // Truth | model | cue_fit | cues_only zoomed on the object, one strip per (view, light).
   ASSERT_EQ(eval["zoom_pngs"].size(), 15u);
   for (const json& zoom : eval["zoom_pngs"]) {
-    EXPECT_EQ(zoom["columns"], json({"truth", "model", "cues_only"}));
+    EXPECT_EQ(zoom["columns"], json({"truth", "model", "cue_fit", "cues_only"}));
     const Image strip = ReadImage((out / zoom["png"].get<std::string>()).string());
     EXPECT_GE(strip.height(), 120);  // the object (~35 px high at 160 x 120) enlarged
     EXPECT_GT(strip.width(), 3 * strip.height() / 2);
   }
   const Image error = ReadImage((out / eval["images"][0]["error_png"].get<std::string>()).string());
   EXPECT_EQ(error.width(), kWidth);
-  for (const std::string method : {"model", "cues_only"}) {
+  for (const std::string method : {"model", "cue_fit", "cues_only"}) {
     for (const std::string type : {"point", "directional", "environment", "all"}) {
       const json& row = Row(eval, method, type);
       EXPECT_EQ(row["images"].get<int>(), type == "point" || type == "environment" ? 6 : type == "all" ? 15 : 3);

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "relight/cue_frames.h"
+#include "relight/cue_texture_fit.h"
 
 namespace relit {
 class OptionsReader;
@@ -69,6 +70,11 @@ struct ModelOptions {
   // cues-only regression. "dnl": the network's output is the image and the
   // mask net's the alpha, as in Deferred Neural Lighting.
   std::string variant = "residual";
+  // The residual variant's cue regression: "smooth" (cue_texture_fit.h:
+  // weights read bilinearly, neighbours share evidence) or "per_texel" (the
+  // cues-only baseline's nearest-texel fit; checkpoints from before "smooth"
+  // hold this one).
+  std::string cue_fit = "smooth";
   int texture_resolution_px = 256;  // power of two
   // > 0: the networks see only the window around the proxy's coverage
   // (plus this margin) in training and rendering, instead of random crops
@@ -118,6 +124,8 @@ struct TrainOptions {
   // Adam rate of the residual model's cue-regression weights; 0 keeps the
   // least-squares fit they start from.
   double regression_learning_rate = 0.0;
+  // The residual variant's warm start with model.cue_fit smooth.
+  CueFitOptions cue_fit;
   double beta1 = 0.9;
   double beta2 = 0.999;
   int batch_size = 1;           // frames per step (the data loader's business)

@@ -28,6 +28,7 @@
 #include "relight/cue_frames.h"
 #include "relight/cue_stage.h"
 #include "relight/cues_baseline.h"
+#include "relight/cue_texture_fit.h"
 #include "relight/dataset.h"
 #include "relight/metrics.h"
 #include "relight/plan.h"
@@ -40,12 +41,13 @@ namespace {
 namespace fs = std::filesystem;
 
 void PrepareWorkspace(const std::string& dir, int frames, int width_px, bool support_plane, int target_spp,
-                      int cue_spp) {
+                      int cue_spp, double proxy_offset_m) {
   if (fs::exists(fs::path(dir) / "relight/plan/plan.json")) return;
   testing::TestWorkspaceOptions o;
   o.frames = frames;
   o.width_px = width_px;
   o.samples_per_pixel = target_spp;
+  o.proxy_offset_m = proxy_offset_m;
   testing::MakeTestWorkspace(dir, o);
   RunRecord record("bench");
   CueStageOptions cues;
@@ -93,16 +95,27 @@ int Run(int argc, char** argv) {
   app.add_option("--lr", training.optimizer.learning_rate);
   app.add_option("--seed", training.optimizer.seed);
   bool support_plane = false;
+  double proxy_offset_m = 0.002;
+  app.add_option("--proxy-offset-m", proxy_offset_m, "GT mesh inflated by this much as the proxy (new --dir)");
   int target_spp = 16, cue_spp = 8;
   app.add_option("--target-spp", target_spp, "path-traced samples of the target frames (new --dir)");
   app.add_option("--cue-spp", cue_spp, "samples of the cue frames (new --dir)");
   app.add_flag("--support-plane", support_plane, "cues with the board and table as context geometry (new --dir)");
+  CueFitOptions fit_options;
+  int fit_resolution = 0;
+  bool fit_only = false;
+  app.add_option("--fit-resolution", fit_resolution, "smooth cue fit texture (0 = --texture)");
+  app.add_option("--fit-diffuse", fit_options.smoothness_diffuse, "smooth cue fit: Lambert smoothness");
+  app.add_option("--fit-specular", fit_options.smoothness_specular, "smooth cue fit: GGX smoothness");
+  app.add_option("--fit-iterations", fit_options.iterations_per_level, "smooth cue fit: CG iterations per level");
+  app.add_option("--fit-levels", fit_options.coarse_levels, "smooth cue fit: coarse levels");
+  app.add_flag("--fit-only", fit_only, "score the cue fits only (no training)");
   std::string dump;
   app.add_option("--dump", dump, "write target / model / baseline EXRs of the held-out frames here");
   CLI11_PARSE(app, argc, argv);
   training.steps = steps;
 
-  PrepareWorkspace(dir, frames, width, support_plane, target_spp, cue_spp);
+  PrepareWorkspace(dir, frames, width, support_plane, target_spp, cue_spp, proxy_offset_m);
   const Plan plan = ReadPlan(dir + "/relight/plan/plan.json");
   std::vector<float> values;
   for (const PlanFrame& f : plan.frames) {
@@ -115,6 +128,53 @@ int Run(int argc, char** argv) {
   auto q = [&](double p) { return values[static_cast<size_t>(p * (values.size() - 1))]; };
   std::printf("targets (green, foreground): median %.4f  p90 %.4f  p99 %.4f  max %.4f   M = %.4f\n", q(0.5),
               q(0.9), q(0.99), q(1.0), plan.max_radiance);
+
+  {
+    // The no-network fits: per-texel (cues-only baseline) and smooth bilinear.
+    const int res = fit_resolution > 0 ? fit_resolution : model.texture_resolution_px;
+    CuesOnlyBaseline per_texel(model.texture_resolution_px);
+    CueTextureFit smooth(res, fit_options);
+    for (int index : plan.partitions[0].train_frames) {
+      const PlanFrame& f = plan.frames[index];
+      const Image cues = ReadCueFrame(dir + "/" + f.cues), image = ReadImage(dir + "/" + f.image),
+                  matte = ReadImage(dir + "/" + f.matte);
+      per_texel.Accumulate(cues, image, matte);
+      smooth.AddFrame(cues, image, matte);
+    }
+    per_texel.Solve();
+    const auto fit_start = std::chrono::steady_clock::now();
+    const CueFitStats stats = smooth.Solve();
+    const double fit_s = SecondsSince(fit_start);
+    auto score = [&](const std::vector<int>& frames, bool use_smooth) {
+      std::vector<ImageMetrics> m;
+      for (int index : frames) {
+        const PlanFrame& f = plan.frames[index];
+        const Image cues = ReadCueFrame(dir + "/" + f.cues);
+        m.push_back(CompareToReference(use_smooth ? smooth.Predict(cues) : per_texel.Predict(cues),
+                                       ReadImage(dir + "/" + f.image), ReadImage(dir + "/" + f.matte)));
+      }
+      return PoolMetrics(m).psnr_db;
+    };
+    if (!dump.empty()) {
+      fs::create_directories(dump);
+      for (int index : plan.partitions[0].validation_frames) {
+        const PlanFrame& f = plan.frames[index];
+        const Image cues = ReadCueFrame(dir + "/" + f.cues);
+        const std::string stem = dump + "/" + fs::path(f.name).filename().string();
+        WriteImage(stem + "_target.exr", ReadImage(dir + "/" + f.image));
+        WriteImage(stem + "_smooth.exr", smooth.Predict(cues));
+        WriteImage(stem + "_per_texel.exr", per_texel.Predict(cues));
+      }
+    }
+    const auto& train = plan.partitions[0].train_frames;
+    const auto& held = plan.partitions[0].validation_frames;
+    std::printf("| fit | per-texel %d: train %.2f held-out %.2f dB | smooth %d (diffuse %.3g specular %.3g, %d it, "
+                "%.1f s): train %.2f held-out %.2f dB |\n",
+                model.texture_resolution_px, score(train, false), score(held, false), res,
+                fit_options.smoothness_diffuse, fit_options.smoothness_specular, stats.iterations, fit_s,
+                score(train, true), score(held, true));
+    if (fit_only) return 0;
+  }
 
   // Each run trains in its own copy, so runs may go in parallel.
   const std::string base = dir;

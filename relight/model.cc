@@ -147,7 +147,8 @@ ModelOutput DnlModelImpl::Forward(const Batch& batch_in) {
                                              : BuildNetworkInput(texture, batch.cues, encoding_.max_radiance());
   if (!options_.residual()) return {renderer_->forward(input), mask_net_->forward(texture)};
   // Corrections on top of the cue regression and of the proxy's coverage.
-  const auto weights = SampleNearest(regression_, batch.uv, batch.coverage);
+  const auto weights = options_.cue_fit == "smooth" ? SampleBilinear(regression_, batch.uv, batch.coverage)
+                                                   : SampleNearest(regression_, batch.uv, batch.coverage);
   const auto regression = encoding_.Encode(CueRegression(weights, batch.cues));
   return {regression + renderer_gate_ * renderer_->forward(input),
           CoverageLogit(batch.coverage) + mask_gate_ * mask_net_->forward(texture)};

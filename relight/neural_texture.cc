@@ -100,16 +100,30 @@ torch::Tensor NeuralTextureImpl::forward(const torch::Tensor& uv_in, const torch
   return SampleMipChain(chain, uv.to(texels_.dtype()), lod.to(texels_.dtype())) * coverage.to(texels_.dtype());
 }
 
-torch::Tensor SampleNearest(const torch::Tensor& texels, const torch::Tensor& uv_in, const torch::Tensor& coverage) {
+namespace {
+// `texels` [1, S, R, R] at level 0 only, times the coverage.
+torch::Tensor SampleLevel0(const torch::Tensor& texels, const torch::Tensor& uv_in, const torch::Tensor& coverage,
+                           bool nearest) {
   CheckPixelTensor(uv_in, "uv", 2);
   const auto covered = (coverage > 0).permute({0, 2, 3, 1});
   const auto uv = torch::where(covered, uv_in, torch::zeros_like(uv_in)).to(texels.dtype());
   const auto grid = torch::stack({uv.select(3, 0) * 2.0 - 1.0, 1.0 - uv.select(3, 1) * 2.0}, 3);
-  const auto options = F::GridSampleFuncOptions()
-                           .mode(torch::kNearest)
-                           .padding_mode(torch::kBorder)
-                           .align_corners(false);
+  auto options = F::GridSampleFuncOptions().padding_mode(torch::kBorder).align_corners(false);
+  if (nearest) {
+    options = options.mode(torch::kNearest);
+  } else {
+    options = options.mode(torch::kBilinear);
+  }
   return F::grid_sample(texels.expand({uv.size(0), -1, -1, -1}), grid, options) * coverage.to(texels.dtype());
+}
+}  // namespace
+
+torch::Tensor SampleNearest(const torch::Tensor& texels, const torch::Tensor& uv, const torch::Tensor& coverage) {
+  return SampleLevel0(texels, uv, coverage, /*nearest=*/true);
+}
+
+torch::Tensor SampleBilinear(const torch::Tensor& texels, const torch::Tensor& uv, const torch::Tensor& coverage) {
+  return SampleLevel0(texels, uv, coverage, /*nearest=*/false);
 }
 
 }  // namespace relit::relight

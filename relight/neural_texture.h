@@ -54,6 +54,10 @@ torch::Tensor SampleMipChain(const std::vector<torch::Tensor>& chain, const torc
 // exactly as they were fitted. Bilinear or mip filtering would blend
 // neighbouring texels' weights, which only agree on the cues each texel saw.
 torch::Tensor SampleNearest(const torch::Tensor& texels, const torch::Tensor& uv, const torch::Tensor& coverage);
+// The same, bilinear between the 4 nearest texel centres ((x + 0.5) / R),
+// clamped at the border: how the smooth cue fit (cue_texture_fit.h) reads
+// the weights it fitted.
+torch::Tensor SampleBilinear(const torch::Tensor& texels, const torch::Tensor& uv, const torch::Tensor& coverage);
 
 class NeuralTextureImpl : public torch::nn::Module {
  public:

@@ -27,7 +27,7 @@ int Log2Exact(int value) {
 }
 
 const std::vector<std::string>& KnownMethods() {
-  static const std::vector<std::string> methods = {"model", "model_point_light", "cues_only"};
+  static const std::vector<std::string> methods = {"model", "model_point_light", "cue_fit", "cues_only"};
   return methods;
 }
 
@@ -118,6 +118,7 @@ GeneratorOptions ModelOptions::MaskOptions() const {
 
 void ModelOptions::Read(OptionsReader& reader) {
   reader.Read("variant", &variant);
+  reader.Read("cue_fit", &cue_fit);
   reader.ReadRange("texture_resolution_px", &texture_resolution_px, 1, 8192);
   reader.ReadRange("object_window_margin_px", &object_window_margin_px, 0, 4096);
   reader.ReadRange("channels_per_basis", &channels_per_basis, 1, 64);
@@ -147,6 +148,8 @@ void ModelOptions::Check() const {
                 "model device must be cpu, cuda or auto, got '", device, "'");
   RELIT_REQUIRE(variant == "residual" || variant == "dnl", "model variant must be residual or dnl, got '", variant,
                 "'");
+  RELIT_REQUIRE(cue_fit == "smooth" || cue_fit == "per_texel", "model cue_fit must be smooth or per_texel, got '",
+                cue_fit, "'");
   RELIT_REQUIRE(!residual() || format.is_default(),
                 "model variant residual starts from a least-squares regression of the 5 default radiance cues: "
                 "it needs the default cues (no cues.input: sh, no other cues.bases); use model variant: dnl");
@@ -154,6 +157,7 @@ void ModelOptions::Check() const {
 
 nlohmann::json ModelOptions::ToJson() const {
   nlohmann::json j = {{"variant", variant},
+          {"cue_fit", cue_fit},
           {"texture_resolution_px", texture_resolution_px},
           {"object_window_margin_px", object_window_margin_px},
           {"channels_per_basis", channels_per_basis},
@@ -176,6 +180,8 @@ void TrainOptions::Read(OptionsReader& reader) {
   reader.Read("learning_rate", &learning_rate);
   reader.Read("texture_learning_rate", &texture_learning_rate);
   reader.Read("regression_learning_rate", &regression_learning_rate);
+  OptionsReader fit_reader = reader.Child("cue_fit");
+  cue_fit.Read(fit_reader);
   reader.Read("beta1", &beta1);
   reader.Read("beta2", &beta2);
   reader.ReadRange("batch_size", &batch_size, 1, 1024);
@@ -200,13 +206,14 @@ void TrainOptions::Check() const {
                 "crop_px must be 0 (no crop) or a multiple of 4 that is >= 8, got ", crop_px);
   RELIT_REQUIRE(mask_loss_weight >= 0 && std::isfinite(mask_loss_weight), "mask_loss_weight must be >= 0");
   RELIT_REQUIRE(threads >= 1 && threads <= 256, "threads must be in [1, 256], got ", threads);
+  cue_fit.Check();
 }
 
 nlohmann::json TrainOptions::ToJson() const {
   return {{"learning_rate", learning_rate}, {"texture_learning_rate", texture_learning_rate},
           {"regression_learning_rate", regression_learning_rate}, {"beta1", beta1}, {"beta2", beta2},
           {"batch_size", batch_size}, {"crop_px", crop_px}, {"mask_loss_weight", mask_loss_weight},
-          {"seed", seed}, {"threads", threads}};
+          {"seed", seed}, {"threads", threads}, {"cue_fit", cue_fit.ToJson()}};
 }
 
 void TrainStageOptions::Read(OptionsReader& reader) {
@@ -286,6 +293,7 @@ void EvalOptions::Read(OptionsReader& r) {
   r.ReadRange("max_views", &max_views, 0, 100000);
   r.ReadRange("baseline_resolution_px", &baseline_resolution_px, 1, 4096);
   r.ReadRange("baseline_ridge", &baseline_ridge, 0.0, 1e9);
+  r.ReadRange("cue_fit_resolution_px", &cue_fit_resolution_px, 1, 8192);
   r.ReadRange("error_map_scale", &error_map_scale, 0.0, 1e6);
   r.ReadRange("clip_radiance", &clip_radiance, 0.0, 1e9);
   r.Read("write_images", &write_images);
@@ -294,11 +302,12 @@ void EvalOptions::Read(OptionsReader& r) {
 }
 
 void EvalOptions::Check() const {
-  RELIT_REQUIRE(!methods.empty(), "eval.methods must list at least one of model, model_point_light, cues_only");
+  RELIT_REQUIRE(!methods.empty(),
+                "eval.methods must list at least one of model, model_point_light, cue_fit, cues_only");
   std::set<std::string> seen;
   for (const std::string& m : methods) {
     RELIT_REQUIRE(std::find(KnownMethods().begin(), KnownMethods().end(), m) != KnownMethods().end(),
-                  "eval.methods: unknown method '", m, "' (known: model, model_point_light, cues_only)");
+                  "eval.methods: unknown method '", m, "' (known: model, model_point_light, cue_fit, cues_only)");
     RELIT_REQUIRE(seen.insert(m).second, "eval.methods lists '", m, "' twice");
   }
   RELIT_REQUIRE(samples_per_pixel >= 0, "eval.samples_per_pixel must be >= 0 (0 = render.samples_per_pixel)");
@@ -316,6 +325,7 @@ nlohmann::json EvalOptions::ToJson() const {
           {"max_views", max_views},
           {"baseline_resolution_px", baseline_resolution_px},
           {"baseline_ridge", baseline_ridge},
+          {"cue_fit_resolution_px", cue_fit_resolution_px},
           {"error_map_scale", error_map_scale},
           {"clip_radiance", clip_radiance},
           {"write_images", write_images}};

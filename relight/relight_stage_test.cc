@@ -18,6 +18,7 @@
 #include "relight/cue_frames.h"
 #include "relight/cue_stage.h"
 #include "relight/cues_baseline.h"
+#include "relight/cue_texture_fit.h"
 #include "relight/dataset.h"
 #include "relight/metrics.h"
 #include "relight/plan.h"
@@ -96,10 +97,9 @@ TEST_F(RelightStageTest, CuesAndPlanDescribeEveryFrame) {
 
 // Learning on real cue frames: after a short training run (300 steps) the
 // held-out frames beat the cues-only baseline (per-texel least squares of the
-// 5 cues, fitted on the same training frames) and the untrained model, and
-// the mask matches the mattes. Measured 15.69 dB vs 14.25 dB (15.87 with
-// another seed; docs/relight.md, "Learning check"): asserted with half that
-// margin.
+// 5 cues, fitted on the same training frames) by 2 dB, training keeps the
+// smooth warm start's quality, and the mask beats the proxy's coverage
+// (docs/relight.md, "Learning check").
 TEST_F(RelightStageTest, TrainedModelBeatsCuesOnlyBaselineOnHeldOutFrames) {
   const auto start = std::chrono::steady_clock::now();
   RunRecord record("test");
@@ -116,6 +116,14 @@ TEST_F(RelightStageTest, TrainedModelBeatsCuesOnlyBaselineOnHeldOutFrames) {
                         ReadImage(dir_ + "/" + f.matte));
   }
   baseline.Solve();
+  // The smooth fit the model starts from (train.cue_fit defaults).
+  CueTextureFit smooth_fit(SmallModel().texture_resolution_px, training.optimizer.cue_fit);
+  for (int index : plan.partitions[0].train_frames) {
+    const PlanFrame& f = plan.frames[index];
+    smooth_fit.AddFrame(ReadCueFrame(dir_ + "/" + f.cues), ReadImage(dir_ + "/" + f.image),
+                        ReadImage(dir_ + "/" + f.matte));
+  }
+  smooth_fit.Solve();
   DnlModel trained = LoadModel(fs::path(dir_) / "relight/partitions/00/checkpoint");
   // The residual model at step 0: its cue regression warm-started on the
   // same training frames, its corrections gated off.
@@ -124,8 +132,8 @@ TEST_F(RelightStageTest, TrainedModelBeatsCuesOnlyBaselineOnHeldOutFrames) {
   Trainer untrained(untrained_options, training.optimizer);
   std::vector<Batch> train_frames;
   for (int index : plan.partitions[0].train_frames) train_frames.push_back(LoadPlanFrame(dir_, plan.frames[index]));
-  WarmStartCueRegression(untrained.model(), train_frames, CuesOnlyBaseline::kDefaultRidge);
-  std::vector<ImageMetrics> model_metrics, untrained_metrics, baseline_metrics;
+  WarmStartCueRegression(untrained.model(), train_frames, training.optimizer.cue_fit);
+  std::vector<ImageMetrics> model_metrics, untrained_metrics, baseline_metrics, smooth_metrics;
   for (int index : plan.partitions[0].validation_frames) {
     const PlanFrame& f = plan.frames[index];
     const Image cues = ReadCueFrame(dir_ + "/" + f.cues);
@@ -135,18 +143,22 @@ TEST_F(RelightStageTest, TrainedModelBeatsCuesOnlyBaselineOnHeldOutFrames) {
     model_metrics.push_back(CompareToReference(RenderFrame(trained, batch), target, matte));
     untrained_metrics.push_back(CompareToReference(RenderFrame(untrained.model(), batch), target, matte));
     baseline_metrics.push_back(CompareToReference(baseline.Predict(cues), target, matte));
+    smooth_metrics.push_back(CompareToReference(smooth_fit.Predict(cues), target, matte));
   }
   const ImageMetrics ours = PoolMetrics(model_metrics), before = PoolMetrics(untrained_metrics),
-                     theirs = PoolMetrics(baseline_metrics);
+                     theirs = PoolMetrics(baseline_metrics), smooth = PoolMetrics(smooth_metrics);
   std::printf("held-out PSNR: trained %.2f dB (MAE %.4f, alpha MAE %.4f), step 0 %.2f dB (alpha MAE %.4f), "
-              "cues-only baseline %.2f dB (MAE %.4f)\n",
-              ours.psnr_db, ours.mae, ours.alpha_mae, before.psnr_db, before.alpha_mae, theirs.psnr_db, theirs.mae);
-  // Step 0 is the baseline (same least-squares fit, same texels) with the
-  // proxy's coverage as alpha.
-  EXPECT_NEAR(before.psnr_db, theirs.psnr_db, 0.1);
-  // Measured: trained 14.65 dB vs cues-only 14.25 (issue 24's goal, +2 dB,
-  // is not reached), alpha MAE 0.0050 vs the coverage's 0.0072.
-  EXPECT_GT(ours.psnr_db, theirs.psnr_db + 0.2);
+              "smooth cue fit %.2f dB, cues-only baseline %.2f dB (MAE %.4f)\n",
+              ours.psnr_db, ours.mae, ours.alpha_mae, before.psnr_db, before.alpha_mae, smooth.psnr_db,
+              theirs.psnr_db, theirs.mae);
+  // Step 0 is the smooth cue fit (same least-squares problem, same
+  // texels) with the proxy's coverage as alpha.
+  EXPECT_NEAR(before.psnr_db, smooth.psnr_db, 0.1);
+  // Measured: trained 16.78 dB, smooth fit 16.73, cues-only 14.25 (issue
+  // 24's +2 dB over cues-only), alpha MAE 0.0050 vs the coverage's 0.0072.
+  // Training keeps the fit's quality (the corrections add little here).
+  EXPECT_GT(ours.psnr_db, theirs.psnr_db + 2.0);
+  EXPECT_GT(ours.psnr_db, before.psnr_db - 0.2);
   EXPECT_LT(ours.mae, theirs.mae);
   EXPECT_LT(ours.alpha_mae, 0.85 * before.alpha_mae);  // better than the proxy's own coverage
   EXPECT_NEAR(result.val_psnr_db, ours.psnr_db, 3.0);  // the stage's own validation agrees (subset of frames)

@@ -119,11 +119,18 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
 
   if (fresh && model_options.residual()) {
     auto timer = record.Time("warm_start");
-    const WarmStartResult start = WarmStartCueRegression(trainer->model(), frames, CuesOnlyBaseline::kDefaultRidge);
-    record.Set("warm_start", json{{"pixels", start.pixels}, {"texels_seen", start.texels_seen},
-                                  {"texels", start.texels}, {"ridge", CuesOnlyBaseline::kDefaultRidge}});
-    spdlog::info("train: partition {}: cue regression fitted on {} pixels ({} of {} texels seen)", partition,
-                 start.pixels, start.texels_seen, start.texels);
+    const WarmStartResult start = WarmStartCueRegression(trainer->model(), frames, options.optimizer.cue_fit);
+    json fit = {{"cue_fit", model_options.cue_fit}, {"pixels", start.pixels}, {"texels_seen", start.texels_seen},
+                {"texels", start.texels}};
+    if (model_options.cue_fit == "smooth") {
+      fit["iterations"] = start.iterations;
+      fit["rms_residual"] = start.rms_residual;
+    } else {
+      fit["ridge"] = CuesOnlyBaseline::kDefaultRidge;
+    }
+    record.Set("warm_start", fit);
+    spdlog::info("train: partition {}: {} cue regression fitted on {} pixels ({} of {} texels seen)", partition,
+                 model_options.cue_fit, start.pixels, start.texels_seen, start.texels);
   }
 
   FrameOrder order(static_cast<int>(frames.size()), options.optimizer.seed);

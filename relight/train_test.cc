@@ -237,6 +237,7 @@ TEST(ResidualModelTest, WarmStartReproducesALinearCueModelAndTheCoverage) {
   std::vector<Batch> frames = Frames(12, 32, 31);
   ModelOptions model_options = testing::TinyModelOptions();
   model_options.texture_resolution_px = 8;
+  model_options.cue_fit = "per_texel";
   torch::manual_seed(7);
   const auto weights = torch::rand({1, 15, 8, 8});
   for (Batch& f : frames) {
@@ -245,7 +246,7 @@ TEST(ResidualModelTest, WarmStartReproducesALinearCueModelAndTheCoverage) {
   model_options.max_radiance = MaxRadiance(frames);
   DnlModel model(model_options);
   // A weak ridge: the synthetic blobs make the 5 cues nearly collinear.
-  const WarmStartResult fit = WarmStartCueRegression(model, frames, 1e-4);
+  const WarmStartResult fit = WarmStartCueRegression(model, frames, CueFitOptions{}, 1e-4);
   std::printf("warm start: %lld pixels, %lld of %lld texels seen\n", static_cast<long long>(fit.pixels),
               static_cast<long long>(fit.texels_seen), static_cast<long long>(fit.texels));
   EXPECT_GT(fit.pixels, 12 * 500);
@@ -262,6 +263,38 @@ TEST(ResidualModelTest, WarmStartReproducesALinearCueModelAndTheCoverage) {
   EXPECT_LT(std::get<0>(seen.sort()).slice(0, 0, fit.texels_seen / 2).max().item<double>(), 0.02);
 }
 
+// The default (smooth) warm start on frames whose targets are a smooth,
+// bilinearly read linear model of the cues: the fit recovers them and the
+// step-0 model renders the targets.
+TEST(ResidualModelTest, SmoothWarmStartReproducesASmoothLinearCueModel) {
+  std::vector<Batch> frames = Frames(12, 32, 31);
+  ModelOptions model_options = testing::TinyModelOptions();
+  model_options.texture_resolution_px = 8;
+  ASSERT_EQ(model_options.cue_fit, "smooth");
+  torch::manual_seed(7);
+  // Weights that vary smoothly over the atlas: a 2x2 grid read bilinearly at 8x8.
+  const auto coarse = torch::rand({1, 15, 2, 2});
+  const auto weights = torch::nn::functional::interpolate(
+      coarse, torch::nn::functional::InterpolateFuncOptions().size(std::vector<int64_t>{8, 8}).mode(torch::kBilinear).align_corners(false));
+  for (Batch& f : frames) {
+    f.target_rgb = CueRegression(SampleBilinear(weights, f.uv, f.coverage), f.cues).clamp_min(0.0);
+  }
+  model_options.max_radiance = MaxRadiance(frames);
+  DnlModel model(model_options);
+  CueFitOptions fit_options;
+  fit_options.iterations_per_level = 300;
+  const WarmStartResult fit = WarmStartCueRegression(model, frames, fit_options);
+  EXPECT_GT(fit.pixels, 12 * 500);
+  EXPECT_GT(fit.iterations, 0);
+  for (const Batch& f : frames) {
+    const auto rgba = model->Render(f);
+    const auto inside = f.coverage > 0.5;
+    const auto error = (rgba.slice(1, 0, 3) - f.target_rgb).abs().masked_select(inside.expand({1, 3, 32, 32}));
+    const double scale = f.target_rgb.masked_select(inside.expand({1, 3, 32, 32})).mean().item<double>();
+    EXPECT_LT(error.mean().item<double>(), 0.02 * scale);
+  }
+}
+
 // From the warm start, training the corrections lowers the loss on the
 // nonlinear (power 0.8) tiny problem, which no linear cue model fits.
 TEST(ResidualModelTest, CorrectionsImproveOnTheCueRegression) {
@@ -273,7 +306,7 @@ TEST(ResidualModelTest, CorrectionsImproveOnTheCueRegression) {
   train_options.seed = 3;
   train_options.threads = 1;
   Trainer trainer(model_options, train_options);
-  WarmStartCueRegression(trainer.model(), frames, CuesOnlyBaseline::kDefaultRidge);
+  WarmStartCueRegression(trainer.model(), frames, train_options.cue_fit);
   auto rgb_loss = [&] {
     double sum = 0;
     torch::NoGradGuard no_grad;

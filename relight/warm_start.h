@@ -8,6 +8,7 @@
 
 #include <vector>
 
+#include "relight/cues_baseline.h"
 #include "relight/model.h"
 
 namespace relit::relight {
@@ -16,12 +17,17 @@ struct WarmStartResult {
   int64_t pixels = 0;          // foreground pixels fitted
   int64_t texels_seen = 0;     // texels with at least one pixel
   int64_t texels = 0;          // all texels of level 0
+  int iterations = 0;          // smooth fit: conjugate-gradient iterations
+  double rms_residual = 0;     // smooth fit: training pixels, linear
 };
 
 // Fits on every pixel with matte >= 0.5 and proxy coverage >= 0.5 of
 // `frames` (Batch tensors with targets) and writes the weights into
-// `model`'s texture. `ridge` pulls texels seen by few pixels towards the
-// global fit (in pixels' worth). Requires the residual variant.
-WarmStartResult WarmStartCueRegression(DnlModel& model, const std::vector<Batch>& frames, double ridge);
+// `model`'s texture: the smooth fit (cue_texture_fit.h, `fit`) or, with
+// model.cue_fit per_texel, the cues-only baseline's per-texel fit whose
+// ridge pulls texels seen by few pixels towards the global fit.
+// Requires the residual variant.
+WarmStartResult WarmStartCueRegression(DnlModel& model, const std::vector<Batch>& frames, const CueFitOptions& fit,
+                                       double per_texel_ridge = CuesOnlyBaseline::kDefaultRidge);
 
 }  // namespace relit::relight
