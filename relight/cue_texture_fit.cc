@@ -69,20 +69,22 @@ void CueFitOptions::Read(OptionsReader& reader) {
   reader.ReadRange("tolerance", &tolerance, 0.0, 1.0);
   reader.ReadRange("coarse_levels", &coarse_levels, 0, 8);
   reader.ReadRange("max_pixels", &max_pixels, int64_t{1000}, int64_t{1} << 40);
+  reader.ReadRange("saturation_level", &saturation_level, 0.0, 1e9);
   reader.Finish();
 }
 
 void CueFitOptions::Check() const {
   RELIT_REQUIRE(smoothness_diffuse >= 0 && smoothness_specular >= 0 && ridge > 0 && iterations_per_level >= 1 &&
-                    tolerance >= 0 && coarse_levels >= 0 && max_pixels >= 1000,
+                    tolerance >= 0 && coarse_levels >= 0 && max_pixels >= 1000 && saturation_level >= 0,
                 "cue_fit: smoothness >= 0, ridge > 0, iterations_per_level >= 1, coarse_levels >= 0 and "
-                "max_pixels >= 1000 required");
+                "max_pixels >= 1000 and saturation_level >= 0 required");
 }
 
 nlohmann::json CueFitOptions::ToJson() const {
   return {{"smoothness_diffuse", smoothness_diffuse}, {"smoothness_specular", smoothness_specular},
           {"ridge", ridge},   {"iterations_per_level", iterations_per_level},
-          {"tolerance", tolerance}, {"coarse_levels", coarse_levels}, {"max_pixels", max_pixels}};
+          {"tolerance", tolerance}, {"coarse_levels", coarse_levels}, {"max_pixels", max_pixels},
+          {"saturation_level", saturation_level}};
 }
 
 CueTextureFit::CueTextureFit(int resolution_px, const CueFitOptions& options)
@@ -93,6 +95,11 @@ CueTextureFit::CueTextureFit(int resolution_px, const CueFitOptions& options)
 
 void CueTextureFit::AddPixel(const float* cues, float u, float v, const float* target_rgb) {
   solved_ = false;
+  if (options_.saturation_level > 0 &&
+      std::max({target_rgb[0], target_rgb[1], target_rgb[2]}) >= options_.saturation_level) {
+    ++saturated_;
+    return;
+  }
   // Streaming decimation: keep every stride-th pixel offered; when twice the
   // budget is held, drop every other one and double the stride.
   if (offered_++ % stride_ != 0) return;
@@ -228,9 +235,11 @@ int CueTextureFit::SolveChannel(int c, int res, const Vec5& global, std::vector<
 }
 
 CueFitStats CueTextureFit::Solve() {
-  RELIT_REQUIRE(!samples_.empty(), "cue fit: no foreground pixel in the training frames");
+  RELIT_REQUIRE(!samples_.empty(), "cue fit: no unsaturated foreground pixel in the training frames (",
+                saturated_, " left out at the saturation level ", options_.saturation_level, ")");
   CueFitStats stats;
   stats.pixels = static_cast<int64_t>(samples_.size());
+  stats.saturated_pixels = saturated_;
   // Unit-RMS cues, so that smoothness and ridge count in pixels' worth.
   std::array<double, kWeights> sum_sq{};
   for (const Sample& s : samples_) {

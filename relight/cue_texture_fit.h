@@ -44,6 +44,12 @@ struct CueFitOptions {
   double tolerance = 1e-5;       // relative residual that ends a level early
   int coarse_levels = 3;         // levels below the final resolution (each half the size)
   int64_t max_pixels = 4000000;  // pixels kept (evenly strided) when the frames hold more
+  // Training pixels with any channel at or above this linear level are left
+  // out: a clipped pixel only says the radiance was at least the white level
+  // (SDR video: 1), and fitting it as equal pulls the weights of bright
+  // surfaces down. 0 = keep every pixel (HDR captures without clipping).
+  double saturation_level = kDefaultSaturationLevel;
+  static constexpr double kDefaultSaturationLevel = 0.99;
 
   void Read(OptionsReader& reader);
   void Check() const;
@@ -52,6 +58,7 @@ struct CueFitOptions {
 
 struct CueFitStats {
   int64_t pixels = 0;       // foreground pixels fitted
+  int64_t saturated_pixels = 0;  // foreground pixels left out as clipped
   int64_t texels_seen = 0;  // texels of the final level with pixel weight
   int iterations = 0;       // conjugate-gradient iterations, all levels and channels
   double rms_residual = 0;  // training pixels, linear, all channels
@@ -65,7 +72,8 @@ class CueTextureFit {
   CueTextureFit(int resolution_px, const CueFitOptions& options);
 
   // One foreground pixel: its 5 cues' RGB ([k * 3 + c]), texture
-  // coordinates (OBJ convention, v up) and linear target RGB.
+  // coordinates (OBJ convention, v up) and linear target RGB (left out when
+  // saturated, see CueFitOptions).
   void AddPixel(const float* cues, float u, float v, const float* target_rgb);
   // The foreground pixels (matte >= 0.5, coverage >= 0.5) of a cue frame
   // (channels as cue_frames.h, default format) with its target and matte.
@@ -85,6 +93,7 @@ class CueTextureFit {
 
   int resolution() const { return resolution_; }
   int64_t pixels() const { return static_cast<int64_t>(samples_.size()); }
+  int64_t saturated_pixels() const { return saturated_; }
 
  private:
   struct Sample {
@@ -102,6 +111,7 @@ class CueTextureFit {
   std::vector<Sample> samples_;
   int64_t offered_ = 0;  // pixels offered to AddPixel (samples_ may keep fewer)
   int64_t stride_ = 1;   // samples_ holds every stride-th pixel offered
+  int64_t saturated_ = 0;  // pixels left out at the saturation level
   std::array<float, kWeights> cue_scale_{};  // RMS of each cue channel
   std::vector<float> weights_;  // [texel][k * 3 + c], unscaled
   bool solved_ = false;

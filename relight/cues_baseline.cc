@@ -30,8 +30,8 @@ void CheckCueFrame(const Image& cue_frame) {
 
 }  // namespace
 
-CuesOnlyBaseline::CuesOnlyBaseline(int resolution_px, double ridge)
-    : resolution_(resolution_px), ridge_(ridge), normals_(static_cast<size_t>(resolution_px) * resolution_px * 3) {
+CuesOnlyBaseline::CuesOnlyBaseline(int resolution_px, double ridge, double saturation_level)
+    : resolution_(resolution_px), ridge_(ridge), saturation_level_(saturation_level), normals_(static_cast<size_t>(resolution_px) * resolution_px * 3) {
   RELIT_REQUIRE(resolution_px >= 1 && ridge > 0, "cues-only baseline: resolution >= 1 and ridge > 0 required");
 }
 
@@ -66,6 +66,7 @@ void CuesOnlyBaseline::Accumulate(const Image& cue_frame, const Image& target_rg
 
 void CuesOnlyBaseline::AccumulatePixel(const float* cues, float u, float v, const float* target_rgb) {
   solved_ = false;
+  if (saturation_level_ > 0 && std::max({target_rgb[0], target_rgb[1], target_rgb[2]}) >= saturation_level_) return;
   const int texel = Texel(u, v);
   for (int c = 0; c < 3; ++c) {
     double cue[kBases];

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/image.h"
+#include "relight/cue_texture_fit.h"
 
 namespace relit::relight {
 
@@ -20,7 +21,10 @@ class CuesOnlyBaseline {
   // `ridge`: weight of the pull towards the global fit, relative to one
   // pixel's contribution.
   static constexpr double kDefaultRidge = 4.0;
-  explicit CuesOnlyBaseline(int resolution_px = 128, double ridge = kDefaultRidge);
+  // Training pixels with any channel at or above `saturation_level` are
+  // left out, as in the smooth fit (cue_texture_fit.h); 0 keeps them all.
+  explicit CuesOnlyBaseline(int resolution_px = 128, double ridge = kDefaultRidge,
+                            double saturation_level = CueFitOptions::kDefaultSaturationLevel);
 
   // Adds the foreground pixels (matte >= 0.5, coverage >= 0.5) of one
   // training frame: a cue frame (channels as cue_frames.h), the linear
@@ -55,6 +59,7 @@ class CuesOnlyBaseline {
 
   int resolution_;
   double ridge_;
+  double saturation_level_;
   std::vector<Normal> normals_;                        // texel * 3 + channel
   std::array<Normal, 3> global_{};
   std::vector<std::array<float, kBases * 3>> weights_;  // per texel: [k * 3 + c]

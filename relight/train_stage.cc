@@ -124,6 +124,7 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
                 {"texels", start.texels}};
     if (model_options.cue_fit == "smooth") {
       fit["iterations"] = start.iterations;
+      fit["saturated_pixels"] = start.saturated_pixels;
       fit["rms_residual"] = start.rms_residual;
     } else {
       fit["ridge"] = CuesOnlyBaseline::kDefaultRidge;

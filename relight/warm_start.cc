@@ -53,6 +53,7 @@ WarmStartResult WarmStartCueRegression(DnlModel& model, const std::vector<Batch>
     });
     const CueFitStats stats = smooth.Solve();
     result.pixels = stats.pixels;
+    result.saturated_pixels = stats.saturated_pixels;
     result.texels_seen = stats.texels_seen;
     result.iterations = stats.iterations;
     result.rms_residual = stats.rms_residual;

@@ -15,6 +15,7 @@ namespace relit::relight {
 
 struct WarmStartResult {
   int64_t pixels = 0;          // foreground pixels fitted
+  int64_t saturated_pixels = 0;  // smooth fit: foreground pixels left out as clipped
   int64_t texels_seen = 0;     // texels with at least one pixel
   int64_t texels = 0;          // all texels of level 0
   int iterations = 0;          // smooth fit: conjugate-gradient iterations
