@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "tools/synth/audio.h"
+#include "tools/synth/synth.h"
 
 namespace relit::synth {
 namespace {
@@ -62,6 +63,16 @@ TEST(FfmpegIo, EncodesDecodesAndTagsRotation) {
   const auto shown_at = [&](int x, int y) { return static_cast<uint8_t>(shown.out[y * height + x]); };
   EXPECT_GT(shown_at(height - 1 - 4, 20), 240);  // stored (20, 4)
   EXPECT_LT(shown_at(4, width - 1 - 20), 240);   // where a counter-clockwise turn would put it
+  // The board clips' PNGs are turned the same way as players turn the video.
+  Image stored(width, height, 1);
+  stored.at(20, 4, 0) = 1.0f;
+  for (int rotation : {90, 180, 270}) {
+    const Image turned = RotatedForDisplay(stored, rotation);
+    EXPECT_EQ(turned.width(), rotation == 180 ? width : height) << rotation;
+    const int x = rotation == 90 ? height - 1 - 4 : rotation == 180 ? width - 1 - 20 : 4;
+    const int y = rotation == 90 ? 20 : rotation == 180 ? height - 1 - 4 : width - 1 - 20;
+    EXPECT_EQ(turned.at(x, y, 0), 1.0f) << rotation;
+  }
   const std::vector<float> decoded = DecodeAudio((dir / "v.mp4").string(), 48000);
   EXPECT_NEAR(static_cast<double>(decoded.size()), static_cast<double>(audio.size()), 1100);
   fs::remove_all(dir);

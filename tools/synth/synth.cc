@@ -190,24 +190,6 @@ void RenderVideo(const SynthOptions& o, const VideoPlan& video, int video_index,
   encoder.Finish();
 }
 
-// The image as a phone shows it: turned clockwise by its rotation metadata.
-Image RotatedForDisplay(const Image& image, int rotation_deg) {
-  if (rotation_deg == 0) return image;
-  const int w = image.width(), h = image.height();
-  const bool swap = rotation_deg == 90 || rotation_deg == 270;
-  Image out(swap ? h : w, swap ? w : h, image.channels());
-  for (int y = 0; y < out.height(); ++y) {
-    for (int x = 0; x < out.width(); ++x) {
-      int sx = x, sy = y;  // source pixel of displayed pixel (x, y)
-      if (rotation_deg == 90) { sx = y; sy = h - 1 - x; }
-      if (rotation_deg == 180) { sx = w - 1 - x; sy = h - 1 - y; }
-      if (rotation_deg == 270) { sx = w - 1 - y; sy = x; }
-      for (int c = 0; c < image.channels(); ++c) out.at(x, y, c) = image.at(sx, sy, c);
-    }
-  }
-  return out;
-}
-
 // Board-only frames as PNG files (what a user exports from a board video):
 // the object removed, lit by the room so no flash shadows the print.
 void RenderBoardClip(const SynthOptions& o, const VideoPlan& clip, int clip_index,
@@ -291,6 +273,23 @@ int RenderEvalSet(const SynthOptions& o, const CapturePlan& plan, const SynthSce
 }
 
 }  // namespace
+
+Image RotatedForDisplay(const Image& image, int rotation_deg) {
+  if (rotation_deg == 0) return image;
+  const int w = image.width(), h = image.height();
+  const bool swap = rotation_deg == 90 || rotation_deg == 270;
+  Image out(swap ? h : w, swap ? w : h, image.channels());
+  for (int y = 0; y < out.height(); ++y) {
+    for (int x = 0; x < out.width(); ++x) {
+      int sx = x, sy = y;  // source pixel of displayed pixel (x, y)
+      if (rotation_deg == 90) { sx = y; sy = h - 1 - x; }
+      if (rotation_deg == 180) { sx = w - 1 - x; sy = h - 1 - y; }
+      if (rotation_deg == 270) { sx = w - 1 - y; sy = x; }
+      for (int c = 0; c < image.channels(); ++c) out.at(x, y, c) = image.at(sx, sy, c);
+    }
+  }
+  return out;
+}
 
 SynthSummary RunSynthImpl(const SynthOptions& options) {
   options.Check();
