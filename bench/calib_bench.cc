@@ -101,7 +101,7 @@ std::vector<FrameSample> SampleFrames(const std::string& workspace, const json& 
     const std::vector<CaptureFrame>& frames = device == "view" ? capture.view : capture.light;
     const int count = static_cast<int>(frames.size());
     const int take = max_frames > 0 ? std::min(count, max_frames) : count;
-    const Intrinsics lens = IntrinsicsFromJson(truth["phones"][device]["intrinsics"]);
+    const Intrinsics lens = TruthLens(truth, device);  // as capture's frames show it
     for (int k = 0; k < take; ++k) {
       const CaptureFrame& f = frames[static_cast<size_t>(k) * count / take];
       FrameSample s;
@@ -110,7 +110,9 @@ std::vector<FrameSample> SampleFrames(const std::string& workspace, const json& 
       const json& t = truth["videos"][device]["frames"].at(f.source_frame);
       const cv::Size size = cv::imread(s.path, cv::IMREAD_UNCHANGED).size();
       RELIT_REQUIRE(size.width > 0, "cannot read ", s.path);
-      s.truth_camera = Camera(lens.Scaled(size.width, size.height), Rigid3FromJson(t["cam_from_world"]));
+      s.truth_camera = Camera(lens.Scaled(size.width, size.height),
+                              DisplayedCamFromWorld(Rigid3FromJson(t["cam_from_world"]),
+                                                    TruthDisplayRotation(truth, device)));
       samples.push_back(s);
     }
   }

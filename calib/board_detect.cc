@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <mutex>
 #include <set>
 
@@ -194,19 +195,78 @@ BoardObservation BoardDetector::Detect(const cv::Mat& grey) const {
   std::vector<cv::Point2f> charuco_corners;
   std::vector<int> charuco_ids;
   cv::aruco::interpolateCornersCharuco(corners, ids, grey, impl_->board, charuco_corners, charuco_ids);
-  if (!charuco_corners.empty()) {
-    // interpolateCornersCharuco stops at 0.1 px and keeps a bias from the
-    // contour-based marker corners: refine once more (docs/synthetic.md).
-    const int w = o.subpix_half_window_px;
-    cv::cornerSubPix(grey, charuco_corners, cv::Size(w, w), cv::Size(-1, -1),
-                     cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3));
+  // Corners next to a single found marker, only where the image shows a
+  // chessboard corner, and only in frames that would otherwise have too few
+  // corners for a pose (detect.min_adjacent_markers): elsewhere they cost
+  // accuracy (docs/calib.md, "Partial boards").
+  std::vector<cv::Point2f> single_corners;
+  std::vector<int> single_ids;
+  if (o.min_adjacent_markers == 1 && static_cast<int>(charuco_ids.size()) < o.min_corners) {
+    std::vector<cv::Point2f> any_corners;
+    std::vector<int> any_ids;
+    cv::aruco::interpolateCornersCharuco(corners, ids, grey, impl_->board, any_corners, any_ids,
+                                         cv::noArray(), cv::noArray(), 1);
+    const std::set<int> have(charuco_ids.begin(), charuco_ids.end());
+    for (size_t i = 0; i < any_ids.size(); ++i) {
+      if (have.count(any_ids[i]) || XCornerContrast(grey, any_corners[i], 3.0) < o.single_marker_min_contrast) {
+        continue;
+      }
+      single_corners.push_back(any_corners[i]);
+      single_ids.push_back(any_ids[i]);
+    }
   }
+  // interpolateCornersCharuco stops at 0.1 px and keeps a bias from the
+  // contour-based marker corners: refine once more (docs/synthetic.md).
+  const int w = o.subpix_half_window_px;
+  const cv::TermCriteria criteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3);
+  if (!charuco_corners.empty()) cv::cornerSubPix(grey, charuco_corners, cv::Size(w, w), cv::Size(-1, -1), criteria);
   for (size_t i = 0; i < charuco_ids.size(); ++i) {
     obs.corner_ids.push_back(charuco_ids[i]);
     obs.corners_px.emplace_back(charuco_corners[i].x, charuco_corners[i].y);
   }
+  if (!single_corners.empty()) {
+    const std::vector<cv::Point2f> predicted = single_corners;
+    cv::cornerSubPix(grey, single_corners, cv::Size(w, w), cv::Size(-1, -1), criteria);
+    for (size_t i = 0; i < single_ids.size(); ++i) {
+      if (cv::norm(single_corners[i] - predicted[i]) > 1.5) continue;  // drifted: not that corner
+      obs.corner_ids.push_back(single_ids[i]);
+      obs.corners_px.emplace_back(single_corners[i].x, single_corners[i].y);
+      ++obs.corners_single_marker;
+    }
+  }
   obs.opencv_ms += MillisecondsSince(start);
   return obs;
+}
+
+double XCornerContrast(const cv::Mat& grey, const cv::Point2f& corner_px, double radius_px) {
+  constexpr int kSamples = 32;
+  std::vector<double> values(kSamples);
+  for (int k = 0; k < kSamples; ++k) {
+    const double a = 2 * M_PI * k / kSamples;
+    const float x = static_cast<float>(corner_px.x + radius_px * std::cos(a));
+    const float y = static_cast<float>(corner_px.y + radius_px * std::sin(a));
+    if (x < 0 || y < 0 || x > grey.cols - 1 || y > grey.rows - 1) return 0;
+    cv::Mat patch;
+    cv::getRectSubPix(grey, cv::Size(1, 1), cv::Point2f(x, y), patch, CV_32F);
+    values[k] = patch.at<float>(0, 0);
+  }
+  double mean = 0;
+  for (double v : values) mean += v / kSamples;
+  int transitions = 0;
+  double bright = 0, dark = 0;
+  int bright_count = 0, dark_count = 0;
+  for (int k = 0; k < kSamples; ++k) {
+    transitions += (values[k] > mean) != (values[(k + 1) % kSamples] > mean);
+    if (values[k] > mean) {
+      bright += values[k];
+      ++bright_count;
+    } else {
+      dark += values[k];
+      ++dark_count;
+    }
+  }
+  if (transitions != 4 || bright_count == 0 || dark_count == 0) return 0;
+  return bright / bright_count - dark / dark_count;
 }
 
 double MeasureMarkerRatio(const BoardObservation& obs, const Intrinsics& intrinsics,

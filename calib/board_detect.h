@@ -27,6 +27,7 @@ struct BoardObservation {
   std::vector<int> corner_ids;                 // ChArUco corner ids
   std::vector<Eigen::Vector2d> corners_px;     // distorted pixels, (0,0) = top-left pixel centre
   std::vector<MarkerCorners> markers;          // all markers used (after merging)
+  int corners_single_marker = 0;               // corners next to one found marker (detect.min_adjacent_markers 1)
   int markers_opencv = 0;                      // found by OpenCV (incl. refineDetectedMarkers)
   int markers_apriltag = 0;                    // found by libapriltag (when it ran)
   int markers_apriltag_added = 0;              // libapriltag markers OpenCV had missed
@@ -58,6 +59,13 @@ class BoardDetector {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+// Contrast (grey levels) of a chessboard corner at `corner_px`: the grey
+// values on a circle of `radius_px` around it must form 4 sectors,
+// alternately above and below their mean; the result is the mean of the
+// bright samples minus the mean of the dark ones, or 0 when the circle does
+// not show 4 sectors (an edge, a flat patch, the object in front).
+double XCornerContrast(const cv::Mat& grey, const cv::Point2f& corner_px, double radius_px);
 
 // The libapriltag family name for an OpenCV dictionary name ("tag36h11" for
 // "DICT_APRILTAG_36h11"); empty for non-AprilTag dictionaries.

@@ -223,10 +223,14 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
   std::vector<std::pair<std::string, std::string>> model_images;
   std::vector<Rigid3> model_poses;
   nlohmann::json unposed = nlohmann::json::array();
+  nlohmann::json unregistered_reasons = nlohmann::json::object();
   for (size_t i = 0; i < frames.size(); ++i) {
     const CaptureFrame& c = frames[i].capture;
     if (!problem.frames[i].posed) {
       unposed.push_back(c.name);
+      unregistered_reasons[c.name] = UnregisteredReason(frames[i], posed_by_board[i], report["sfm"],
+                                                        options.detect.min_corners, detector.marker_count());
+      spdlog::info("calib: {} not registered: {}", c.name, unregistered_reasons[c.name].get<std::string>());
       continue;
     }
     CalibratedFrame f;
@@ -279,7 +283,8 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
                           {"light", summary.registered["light"]},
                           {"light_frames", summary.frames["light"]},
                           {"frames_posed_by_board", board_posed},
-                          {"unposed", unposed}};
+                          {"unposed", unposed},
+                          {"unregistered_reasons", unregistered_reasons}};
   if (geometry_pass) {
     report["registered"]["geometry"] = summary.registered["geometry"];
     report["registered"]["geometry_frames"] = summary.frames["geometry"];

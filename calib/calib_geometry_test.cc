@@ -77,7 +77,7 @@ TEST_F(CalibGeometryTest, GeometryPassIsRegisteredAndFeedsTheProxy) {
   CalibOptions o;
   o.workspace = ws;
   o.board = BoardSpecFromTruth(truth_);
-  o.light.flash_offset_m = truth_["flash"]["offset_cam_m"].get<std::vector<double>>();
+  o.light.flash_offset_m = TruthFlashOffset(truth_);
   o.sfm.sequential_overlap = 6;
   RunCalibImpl(o);
 

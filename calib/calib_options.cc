@@ -12,6 +12,8 @@ void DetectOptions::Read(OptionsReader& r) {
   r.ReadRange("apriltag_below_fraction", &apriltag_below_fraction, 0.0, 1.0);
   r.ReadRange("subpix_half_window_px", &subpix_half_window_px, 1, 20);
   r.ReadRange("min_corners", &min_corners, 4, 10000);
+  r.ReadRange("min_adjacent_markers", &min_adjacent_markers, 1, 2);
+  r.ReadRange("single_marker_min_contrast", &single_marker_min_contrast, 0.0, 255.0);
   r.ReadRange("threads", &threads, 0, 1024);
   r.Finish();
 }
@@ -24,6 +26,11 @@ void DetectOptions::Check() const {
   RELIT_REQUIRE(subpix_half_window_px >= 1, "detect.subpix_half_window_px must be >= 1");
   RELIT_REQUIRE(min_corners >= 4, "detect.min_corners must be >= 4 (PnP), got ", min_corners);
   RELIT_REQUIRE(threads >= 0, "detect.threads must be >= 0");
+  RELIT_REQUIRE(min_adjacent_markers == 1 || min_adjacent_markers == 2,
+                "detect.min_adjacent_markers must be 1 or 2, got ", min_adjacent_markers);
+  RELIT_REQUIRE(single_marker_min_contrast >= 0 && single_marker_min_contrast <= 255,
+                "detect.single_marker_min_contrast must be in [0, 255] grey levels, got ",
+                single_marker_min_contrast);
 }
 
 nlohmann::json DetectOptions::ToJson() const {
@@ -31,6 +38,8 @@ nlohmann::json DetectOptions::ToJson() const {
           {"apriltag_below_fraction", apriltag_below_fraction},
           {"subpix_half_window_px", subpix_half_window_px},
           {"min_corners", min_corners},
+          {"min_adjacent_markers", min_adjacent_markers},
+          {"single_marker_min_contrast", single_marker_min_contrast},
           {"threads", threads}};
 }
 

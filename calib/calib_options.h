@@ -25,6 +25,15 @@ struct DetectOptions {
   double apriltag_below_fraction = 0.8;
   int subpix_half_window_px = 3;   // cv::cornerSubPix half window on ChArUco corners
   int min_corners = 6;             // fewer corners: the frame gets no board pose
+  // A ChArUco corner needs this many of its two neighbouring markers found
+  // (OpenCV: 2). With 1, a frame with fewer than min_corners such corners
+  // also gets the corners next to a single found marker, where the image
+  // shows a chessboard corner (4 light/dark sectors of at least
+  // single_marker_min_contrast grey levels on a 3 px circle) and
+  // cornerSubPix keeps them within 1.5 px: a flash shadow or the object
+  // hiding half the board leaves a marker's other neighbour unreadable.
+  int min_adjacent_markers = 1;
+  double single_marker_min_contrast = 20;
   int threads = 0;                 // 0 = all cores
 
   void Read(OptionsReader& reader);

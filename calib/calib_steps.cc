@@ -82,12 +82,16 @@ nlohmann::json DetectionReport(const std::vector<CalibFrame>& frames, const std:
                                int min_corners) {
   int count = 0, with_board = 0, apriltag_frames = 0, apriltag_added = 0;
   double opencv_ms = 0, apriltag_ms = 0, markers = 0, corners = 0;
+  int single_marker_corners = 0;
+  std::vector<int> seen;  // markers per frame that shows any: a shadowed board shows few
   for (const CalibFrame& f : frames) {
     if (f.capture.device != device) continue;
     ++count;
+    if (!f.board.markers.empty()) seen.push_back(static_cast<int>(f.board.markers.size()));
     with_board += static_cast<int>(f.board.corner_ids.size()) >= min_corners;
     markers += f.board.markers.size();
     corners += f.board.corner_ids.size();
+    single_marker_corners += f.board.corners_single_marker;
     opencv_ms += f.board.opencv_ms;
     if (f.board.apriltag_ran) {
       ++apriltag_frames;
@@ -96,10 +100,15 @@ nlohmann::json DetectionReport(const std::vector<CalibFrame>& frames, const std:
     }
   }
   const double n = std::max(1, count);
+  std::sort(seen.begin(), seen.end());
   return {{"frames", count},
           {"frames_with_board", with_board},
           {"mean_markers", markers / n},
+          {"markers_min_median_max", seen.empty() ? std::vector<int>{0, 0, 0}
+                                                  : std::vector<int>{seen.front(), seen[seen.size() / 2],
+                                                                     seen.back()}},
           {"mean_corners", corners / n},
+          {"corners_next_to_one_marker", single_marker_corners},
           {"opencv_ms_per_frame", opencv_ms / n},
           {"apriltag_frames", apriltag_frames},
           {"apriltag_ms_per_frame", apriltag_frames > 0 ? apriltag_ms / apriltag_frames : 0.0},
@@ -367,6 +376,32 @@ nlohmann::json GeometryPassReport(const std::vector<CalibFrame>& frames, const B
           {"unregistered", unregistered},
           {"lens", "view (same phone)"},
           {"corner_rms_px", corner_frames > 0 ? std::sqrt(corner_sum / corner_frames) : 0.0}};
+}
+
+std::string UnregisteredReason(const CalibFrame& frame, bool posed_by_board, const nlohmann::json& sfm_report,
+                               int min_corners, int board_markers) {
+  const BoardObservation& board = frame.board;
+  const int corners = static_cast<int>(board.corner_ids.size());
+  const int markers = static_cast<int>(board.markers.size());
+  std::string reason;
+  if (markers == 0) {
+    reason = "no board marker found (of " + std::to_string(board_markers) + ")";
+  } else if (corners < std::max(4, min_corners)) {
+    reason = std::to_string(markers) + " of " + std::to_string(board_markers) + " board markers, " +
+             std::to_string(corners) + " ChArUco corners: fewer than detect.min_corners = " +
+             std::to_string(min_corners) + " for a board pose";
+  } else if (posed_by_board) {
+    reason = "its board pose (" + std::to_string(corners) + " corners) lost every corner as an outlier "
+             "(beyond refine.outlier_px) in the refinement";
+  } else {
+    reason = "no board pose from " + std::to_string(corners) + " corners (PnP failed or put the board behind "
+             "the camera)";
+  }
+  if (!sfm_report.value("ran", false)) return reason + "; SfM off (sfm.enabled: false)";
+  if (sfm_report.contains("unregistered") && sfm_report["unregistered"].contains(frame.capture.name)) {
+    return reason + "; COLMAP: " + sfm_report["unregistered"][frame.capture.name].get<std::string>();
+  }
+  return reason + "; its COLMAP pose was dropped in the joint refinement (no inlier observation)";
 }
 
 }  // namespace relit::calib

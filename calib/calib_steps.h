@@ -68,4 +68,11 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
 nlohmann::json CheckBoardScale(const std::vector<CalibFrame>& frames, const BundleProblem& problem,
                                const CalibOptions& options, double* measured_ratio);
 
+// Why a frame ended up without a pose, in one line for calib_report.json
+// and calib.log: what the board detection found (markers of board_markers,
+// corners against min_corners), whether its board pose was dropped, and
+// what COLMAP said when SfM ran.
+std::string UnregisteredReason(const CalibFrame& frame, bool posed_by_board, const nlohmann::json& sfm_report,
+                               int min_corners, int board_markers);
+
 }  // namespace relit::calib

@@ -77,7 +77,7 @@ class CalibSynthTest : public ::testing::Test {
     CalibOptions o;
     o.workspace = workspace;
     o.board = BoardSpecFromTruth(truth_);
-    o.light.flash_offset_m = truth_["flash"]["offset_cam_m"].get<std::vector<double>>();
+    o.light.flash_offset_m = TruthFlashOffset(truth_);
     o.sfm.enabled = false;
     return o;
   }
@@ -181,7 +181,7 @@ TEST_F(CalibSynthTest, BoardClipsCalibrateTheLenses) {
   const CamerasFile cameras = ReadCamerasFile(ws + "/calib/cameras.json");
   const json report = ReadJsonFile(ws + "/calib/calib_report.json", "calib_report", 1);
   for (const std::string device : {"view", "light"}) {
-    const Intrinsics truth_lens = IntrinsicsFromJson(truth_["phones"][device]["intrinsics"]);
+    const Intrinsics truth_lens = TruthLens(truth_, device);
     const Intrinsics& lens = cameras.devices.at(device);
     std::cout << device << ": f " << lens.fx << " (truth " << truth_lens.fx << "), c " << lens.cx << ", "
               << lens.cy << " (truth " << truth_lens.cx << ", " << truth_lens.cy << "), initial "

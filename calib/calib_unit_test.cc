@@ -19,6 +19,7 @@
 #include "calib/calib_options.h"
 #include "calib/colmap_sfm.h"
 #include "calib/lights.h"
+#include "calib/truth_accuracy.h"
 #include "calib/undistort.h"
 #include "core/error.h"
 
@@ -26,6 +27,38 @@ namespace relit::calib {
 namespace {
 
 namespace fs = std::filesystem;
+
+// A synthetic truth is for the stored pixels; capture turns frames by their
+// display rotation. The turned lens and pose must put every world point
+// where the turned image shows it.
+TEST(TruthDisplayTest, TurnedLensAndPoseProjectWhereTheTurnedImageShows) {
+  Intrinsics stored = Intrinsics::FromFov(384, 216, 70 * M_PI / 180);
+  stored.cx += 3.5;
+  stored.cy -= 2.0;
+  stored.fy = stored.fx * 1.01;
+  stored.distortion = {0.06, 0.01, -0.0002, 0.0005, 0.001};
+  const Rigid3 pose = LookAt({0.3, -0.2, 0.25}, {0.01, 0.02, 0.05}, Eigen::Vector3d::UnitZ());
+  const Camera camera(stored, pose);
+  const int w = stored.width, h = stored.height;
+  for (int rotation : {0, 90, 180, 270}) {
+    const Camera turned(DisplayedIntrinsics(stored, rotation), DisplayedCamFromWorld(pose, rotation));
+    for (const Eigen::Vector3d& point : {Eigen::Vector3d(0, 0, 0.05), Eigen::Vector3d(0.08, -0.05, 0.0),
+                                        Eigen::Vector3d(-0.1, 0.07, 0.02)}) {
+      Eigen::Vector2d p, q;
+      ASSERT_TRUE(camera.Project(point, &p));
+      ASSERT_TRUE(turned.Project(point, &q));
+      Eigen::Vector2d expected = p;  // where the clockwise turn moves stored pixel p
+      if (rotation == 90) expected = {h - 1 - p.y(), p.x()};
+      if (rotation == 180) expected = {w - 1 - p.x(), h - 1 - p.y()};
+      if (rotation == 270) expected = {p.y(), w - 1 - p.x()};
+      EXPECT_NEAR((q - expected).norm(), 0.0, 1e-9) << "rotation " << rotation;
+    }
+    const Eigen::Vector3d flash = DisplayedCameraPoint({0.01, 0.002, 0}, rotation);
+    EXPECT_NEAR((turned.world_from_cam() * flash - camera.world_from_cam() * Eigen::Vector3d(0.01, 0.002, 0)).norm(),
+                0.0, 1e-12);
+  }
+  EXPECT_THROW(DisplayedIntrinsics(stored, 45), std::runtime_error);
+}
 
 TEST(CalibOptionsTest, UnknownKeysAndBadBoardsAreErrors) {
   CalibOptions o;
@@ -114,6 +147,40 @@ TEST(BoardDetectTest, OpenCvAndAprilTagAgreeAndCornersAreAccurate) {
   BoardSpec wrong = spec;
   wrong.square_length_m = 0.045;
   EXPECT_NEAR(MeasureMarkerRatio(obs, pinhole, wrong), 0.75, 0.02);
+}
+
+// Half the board in deep shadow (a flash shadow): the corners next to a
+// single found marker are added where the image shows a chessboard corner,
+// accurately, and none where it shows nothing.
+TEST(BoardDetectTest, CornersNextToOneMarkerUnderAShadow) {
+  BoardSpec spec;
+  spec.dictionary = "DICT_4X4_50";
+  std::vector<Eigen::Vector2d> truth;
+  cv::Mat image = WarpedBoard(spec, &truth);
+  const int shadow_x = 560;
+  image(cv::Rect(shadow_x, 0, image.cols - shadow_x, image.rows)).setTo(6);
+  DetectOptions pairs;
+  pairs.min_adjacent_markers = 2;
+  const BoardObservation strict = BoardDetector(spec, pairs).Detect(image);
+  DetectOptions rescue;  // single-marker corners only rescue frames with too few pair corners
+  rescue.min_corners = 10;
+  const BoardObservation obs = BoardDetector(spec, rescue).Detect(image);
+  EXPECT_EQ(BoardDetector(spec, DetectOptions()).Detect(image).corners_single_marker, 0);  // 8 >= 6
+  std::cout << "shadowed board: " << obs.markers.size() << " markers, corners " << strict.corner_ids.size()
+            << " (two markers) -> " << obs.corner_ids.size() << " (" << obs.corners_single_marker
+            << " next to one marker)\n";
+  EXPECT_LT(obs.markers.size(), 12u);
+  EXPECT_GT(obs.corners_single_marker, 2);
+  EXPECT_EQ(obs.corner_ids.size(), strict.corner_ids.size() + obs.corners_single_marker);
+  for (size_t i = 0; i < obs.corner_ids.size(); ++i) {
+    EXPECT_LT((obs.corners_px[i] - truth[obs.corner_ids[i]]).norm(), 0.5) << "corner " << obs.corner_ids[i];
+    EXPECT_LT(obs.corners_px[i].x(), shadow_x - 2) << "corner " << obs.corner_ids[i] << " in the shadow";
+  }
+  // The corner test itself: a corner, an edge, a flat patch.
+  const cv::Point2f corner(truth[0].x(), truth[0].y());
+  EXPECT_GT(XCornerContrast(image, corner, 3.0), 100);
+  EXPECT_EQ(XCornerContrast(image, cv::Point2f(shadow_x + 40, 300), 3.0), 0.0);
+  EXPECT_EQ(XCornerContrast(image, cv::Point2f(shadow_x, 300), 3.0), 0.0);  // the shadow's edge
 }
 
 TEST(AlignTest, RobustSimilarityIgnoresOutliers) {

@@ -23,6 +23,67 @@ double Quantile(std::vector<double> values, double q) {
 
 double Median(std::vector<double> values) { return Quantile(std::move(values), 0.5); }
 
+namespace {
+
+// Camera frame of the displayed image from the stored one: a turn of
+// rotation_deg about +z (90: displayed x = -stored y, displayed y = stored x).
+Eigen::Matrix3d DisplayTurn(int rotation_deg) {
+  RELIT_REQUIRE(rotation_deg == 0 || rotation_deg == 90 || rotation_deg == 180 || rotation_deg == 270,
+                "display rotation must be 0, 90, 180 or 270 degrees, got ", rotation_deg);
+  const double a = rotation_deg * M_PI / 180;
+  Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+  r(0, 0) = std::round(std::cos(a));
+  r(0, 1) = -std::round(std::sin(a));
+  r(1, 0) = std::round(std::sin(a));
+  r(1, 1) = std::round(std::cos(a));
+  return r;
+}
+
+}  // namespace
+
+Eigen::Vector3d DisplayedCameraPoint(const Eigen::Vector3d& stored_cam, int rotation_deg) {
+  return DisplayTurn(rotation_deg) * stored_cam;
+}
+
+Rigid3 DisplayedCamFromWorld(const Rigid3& stored, int rotation_deg) {
+  return Rigid3(DisplayTurn(rotation_deg), Eigen::Vector3d::Zero()) * stored;
+}
+
+Intrinsics DisplayedIntrinsics(const Intrinsics& stored, int rotation_deg) {
+  DisplayTurn(rotation_deg);  // checks the angle
+  Intrinsics k = stored;
+  for (int turn = 0; turn < rotation_deg / 90; ++turn) {
+    // One clockwise quarter turn: displayed (x, y) = (h - 1 - y, x); the
+    // tangential terms follow the normalised coordinates (x', y') = (-y, x).
+    const Intrinsics before = k;
+    k.width = before.height;
+    k.height = before.width;
+    k.fx = before.fy;
+    k.fy = before.fx;
+    k.cx = before.height - 1 - before.cy;
+    k.cy = before.cx;
+    k.distortion.p1 = before.distortion.p2;
+    k.distortion.p2 = -before.distortion.p1;
+  }
+  return k;
+}
+
+int TruthDisplayRotation(const json& truth, const std::string& phone) {
+  if (!truth.contains("videos") || !truth["videos"].contains(phone)) return 0;
+  return truth["videos"][phone].value("display_rotation_deg", 0);
+}
+
+Intrinsics TruthLens(const json& truth, const std::string& phone) {
+  return DisplayedIntrinsics(IntrinsicsFromJson(truth.at("phones").at(phone).at("intrinsics")),
+                             TruthDisplayRotation(truth, phone));
+}
+
+std::vector<double> TruthFlashOffset(const json& truth) {
+  const Eigen::Vector3d offset = DisplayedCameraPoint(Vector3FromJson(truth.at("flash").at("offset_cam_m")),
+                                                      TruthDisplayRotation(truth, "light"));
+  return {offset.x(), offset.y(), offset.z()};
+}
+
 BoardSpec BoardSpecFromTruth(const json& truth) {
   const json& b = truth.at("board");
   BoardSpec spec;
@@ -51,7 +112,9 @@ CalibAccuracy MeasureCalibAccuracy(const std::string& workspace, const json& tru
 
   std::map<std::string, std::vector<double>> position_mm, rotation_deg;
   for (const CalibratedFrame& f : cameras.frames) {
-    const Rigid3 truth_pose = Rigid3FromJson(truth_frame(f.device, f.name)["cam_from_world"]);
+    const std::string phone = f.device == "geometry" ? "view" : f.device;
+    const Rigid3 truth_pose = DisplayedCamFromWorld(Rigid3FromJson(truth_frame(f.device, f.name)["cam_from_world"]),
+                                                    TruthDisplayRotation(truth, f.device == "geometry" ? "geometry" : phone));
     position_mm[f.device].push_back(
         (f.cam_from_world.Inverse().translation - truth_pose.Inverse().translation).norm() * 1e3);
     rotation_deg[f.device].push_back(RotationAngle(f.cam_from_world.rotation, truth_pose.rotation) * 180 / M_PI);
@@ -68,7 +131,7 @@ CalibAccuracy MeasureCalibAccuracy(const std::string& workspace, const json& tru
     const std::string phone = device == "geometry" ? "view" : device;
     const auto lens = cameras.devices.find(device);
     if (lens != cameras.devices.end() && truth["phones"].contains(phone)) {
-      d.focal_error = lens->second.fx / truth["phones"][phone]["intrinsics"]["fx"].get<double>() - 1;
+      d.focal_error = lens->second.fx / TruthLens(truth, phone).fx - 1;
     }
   }
   std::vector<double> flash_mm;

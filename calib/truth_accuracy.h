@@ -10,7 +10,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include <Eigen/Core>
+
 #include "core/board.h"
+#include "core/camera.h"
 
 namespace relit::calib {
 
@@ -37,6 +40,19 @@ struct CalibAccuracy {
 // of the synthetic capture capture/ was made from. Frames are matched
 // through capture.json's source_frame indices.
 CalibAccuracy MeasureCalibAccuracy(const std::string& workspace, const nlohmann::json& truth);
+
+// relit-synth's truth is for a video's stored pixels; relit-capture hands
+// calib the frames turned clockwise by their display rotation (0/90/180/
+// 270). These give the truth's lens, pose and camera-frame point as calib
+// sees them: the camera frame turned about its optical axis.
+Intrinsics DisplayedIntrinsics(const Intrinsics& stored, int rotation_deg);
+Rigid3 DisplayedCamFromWorld(const Rigid3& stored_cam_from_world, int rotation_deg);
+Eigen::Vector3d DisplayedCameraPoint(const Eigen::Vector3d& stored_cam, int rotation_deg);
+// A phone's rotation in truth.json (its video's display_rotation_deg, 0 when absent).
+int TruthDisplayRotation(const nlohmann::json& truth, const std::string& phone);
+// truth.json's lens of `phone` and the flash offset (phone L's camera frame), as calib sees them.
+Intrinsics TruthLens(const nlohmann::json& truth, const std::string& phone);
+std::vector<double> TruthFlashOffset(const nlohmann::json& truth);
 
 // The board truth.json says was rendered (its "board" object).
 BoardSpec BoardSpecFromTruth(const nlohmann::json& truth);

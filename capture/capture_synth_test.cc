@@ -1,5 +1,6 @@
-// relit-capture on the tiny synthetic capture of relit-synth: the recovered
-// offset against truth.json, injected blur, and byte-identical reruns.
+// relit-capture on the tiny synthetic capture of relit-synth (phone L held
+// in portrait): the recovered offset against truth.json, injected blur, and
+// byte-identical reruns.
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -42,12 +43,13 @@ class CaptureSynthTest : public ::testing::Test {
     // The capture stage never reads the evaluation set: keep it minimal.
     o.eval_views = 1;
     o.eval_samples_per_pixel = 1;
-    // Two phones that differ like real ones (issue 25): phone L films 10%
-    // more frames, at 29.97 fps, with 44.1 kHz audio. With equal lengths the
-    // old sync's error (the difference of the two track lengths) was hidden.
-    o.light_frames_per_video = 33;
-    o.light_fps = 29.97;
-    o.light_audio_rate_hz = 44100;
+    // Two phones that differ like real ones (issue 25; the tiny preset's
+    // phone L films 10% more frames, at 29.97 fps and 352x264, with 44.1 kHz
+    // audio starting 34 ms after its first frame, phone V's 21 ms before).
+    // With equal lengths the old sync's error (the difference of the two
+    // track lengths) was hidden. Here phone L is also held in portrait:
+    // its file says "rotate 90".
+    o.light_display_rotation_deg = 90;
     synth::RunSynthImpl(o);
     truth_ = ReadJsonFile(*dir_ / "synth/truth.json", synth::kTruthKind, synth::kTruthVersion);
   }
@@ -83,13 +85,23 @@ TEST_F(CaptureSynthTest, TinySyntheticCapture) {
 void CheckOffsetAndTimestamps(TempDir* dir_, const nlohmann::json& truth_) {
   const std::string out = *dir_ / "out";
   const CaptureSummary summary = RunCaptureImpl(SynthCaptureOptions(*dir_, *dir_ / "synth/view.mp4", out));
-  const double truth = truth_["light_start_offset_s"];
+  // capture's clocks are the files' presentation times; truth counts from
+  // each video's first frame, which the tiny preset's phone V (audio first)
+  // has at 21 ms.
+  const double view_pts_s = truth_["videos"]["view"]["first_frame_pts_s"];
+  const double light_pts_s = truth_["videos"]["light"]["first_frame_pts_s"];
+  EXPECT_NEAR(view_pts_s, 0.021, 1e-12);
+  const double truth = truth_["light_start_offset_s"].get<double>() + view_pts_s - light_pts_s;
   EXPECT_EQ(truth_["videos"]["light"]["frame_count"].get<int>(), 33);
   EXPECT_NEAR(truth_["videos"]["light"]["fps"].get<double>(), 30000.0 / 1001, 1e-9);
   const nlohmann::json inputs = ReadCaptureJson(out)["inputs"];
   EXPECT_EQ(inputs["light"]["frames_decoded"].get<int>(), 33);
   EXPECT_EQ(inputs["light"]["audio_sample_rate_hz"].get<int>(), 44100);
   EXPECT_EQ(inputs["view"]["frames_decoded"].get<int>(), 30);
+  EXPECT_EQ(inputs["light"]["rotation_deg"].get<int>(), 90);
+  EXPECT_EQ(inputs["light"]["output_width_px"].get<int>(), 264);  // turned as displayed
+  EXPECT_EQ(inputs["light"]["output_height_px"].get<int>(), 352);
+  EXPECT_NEAR(truth_["videos"]["light"]["audio_start_own_s"].get<double>(), 0.034, 1e-12);
   std::cout << "offset: recovered " << summary.offset_s << " s, truth " << truth << " s, error "
             << (summary.offset_s - truth) * 1e3 << " ms, confidence " << summary.confidence << "\n";
   EXPECT_NEAR(summary.offset_s, truth, 2e-3);
@@ -99,20 +111,21 @@ void CheckOffsetAndTimestamps(TempDir* dir_, const nlohmann::json& truth_) {
   ASSERT_GT(capture["view_frames"].size(), 10u);
   for (const auto& frame : capture["view_frames"]) {
     const auto& t = view_truth[frame["source_frame"].get<int>()];
-    EXPECT_NEAR(frame["time_s"].get<double>(), t["t_common_s"].get<double>(), 1e-4);
+    EXPECT_NEAR(frame["time_s"].get<double>(), t["t_common_s"].get<double>() + view_pts_s, 1e-4);
   }
   for (const auto& frame : capture["light_frames"]) {
     const auto& t = light_truth[frame["source_frame"].get<int>()];
-    EXPECT_NEAR(frame["source_time_s"].get<double>(), t["t_own_s"].get<double>(), 1e-4);
-    EXPECT_NEAR(frame["time_s"].get<double>(), t["t_common_s"].get<double>(), 2e-3);
+    EXPECT_NEAR(frame["source_time_s"].get<double>(), t["t_own_s"].get<double>() + light_pts_s, 1e-4);
+    EXPECT_NEAR(frame["time_s"].get<double>(), t["t_common_s"].get<double>() + view_pts_s, 2e-3);
   }
 }
 
 void CheckInjectedBlurIsRejected(TempDir* dir_) {
-  // Blur two phone V frames inside the overlap with phone L, keep the audio.
+  // Blur two phone V frames inside the overlap with phone L, keep the audio
+  // (and the frames' timestamps: phone V's first frame is at 21 ms).
   const std::string blurred = *dir_ / "view_blurred.mp4";
   Shell("ffmpeg -nostdin -v error -y -i " + ShellQuote(*dir_ / "synth/view.mp4") +
-        " -map 0 -vf \"gblur=sigma=2.5:enable='eq(n,17)+eq(n,24)'\" -c:v libx264 -crf 14 "
+        " -map 0 -fps_mode passthrough -vf \"gblur=sigma=2.5:enable='eq(n,17)+eq(n,24)'\" -c:v libx264 -crf 14 "
         "-pix_fmt yuv420p -c:a copy " + ShellQuote(blurred));
   const std::string out = *dir_ / "out_blurred";
   RunCaptureImpl(SynthCaptureOptions(*dir_, blurred, out));

@@ -16,7 +16,7 @@ constexpr double kDegToRad = M_PI / 180.0;
 
 enum Stream : uint64_t {
   kViewPath = 1, kLightPath, kGeometryPath, kOffset, kClaps, kEval, kLightDirection, kSun,
-  kBoardClip, kEvalInterpolation,
+  kBoardClip, kEvalInterpolation, kViewExposure, kLightExposure,
 };
 
 // Smallest angle between a unit direction and any of `directions` (pi for none).
@@ -51,28 +51,62 @@ HandheldPathParams PathParams(const SynthOptions& o, const SynthScene& scene, do
   return p;
 }
 
+// The flash at time t_s: phone L's path carries it at flash_offset_cam_m.
+Eigen::Vector3d FlashAt(const HandheldPath* flash_path, const Eigen::Vector3d& flash_offset_cam_m, double t_s) {
+  if (flash_path == nullptr) return Eigen::Vector3d::Zero();
+  return flash_path->CamFromWorld(t_s).Inverse() * flash_offset_cam_m;
+}
+
+// Rows are read top to bottom over the readout; the middle row at t_common_s.
+std::vector<RowBand> RollingShutterBands(int height_px, double readout_s, double t_common_s,
+                                         const HandheldPath& path, const HandheldPath* flash_path,
+                                         const Eigen::Vector3d& flash_offset_cam_m) {
+  std::vector<RowBand> bands;
+  if (readout_s <= 0) return bands;
+  const int count = std::min(kRollingShutterBands, height_px);
+  for (int b = 0; b < count; ++b) {
+    RowBand band;
+    band.row_begin = b * height_px / count;
+    band.row_end = (b + 1) * height_px / count;
+    const double middle_row = 0.5 * (band.row_begin + band.row_end);
+    band.t_common_s = t_common_s + (middle_row / height_px - 0.5) * readout_s;
+    band.cam_from_world = path.CamFromWorld(band.t_common_s);
+    band.light_position_world = FlashAt(flash_path, flash_offset_cam_m, band.t_common_s);
+    bands.push_back(band);
+  }
+  return bands;
+}
+
 VideoPlan SampleVideo(const std::string& name, const std::string& phone, const std::string& lighting,
                       const Intrinsics& intrinsics, const HandheldPath& path,
                       const HandheldPath* flash_path, const Eigen::Vector3d& flash_offset_cam_m,
-                      double start_common_s, int frame_count, double fps, int audio_rate_hz) {
+                      double start_common_s, const RecordingParams& recording) {
   VideoPlan video;
   video.name = name;
   video.phone = phone;
   video.lighting = lighting;
   video.intrinsics = intrinsics;
   video.start_common_s = start_common_s;
-  video.fps = fps;
-  video.audio_rate_hz = audio_rate_hz;
-  for (int i = 0; i < frame_count; ++i) {
+  video.fps = recording.fps;
+  video.audio_rate_hz = recording.audio_rate_hz;
+  video.audio_start_s = recording.audio_start_s;
+  video.rolling_shutter_s = recording.rolling_shutter_s;
+  video.exposure_drift = recording.exposure_drift;
+  video.display_rotation_deg = recording.display_rotation_deg;
+  uint64_t exposure_state = recording.exposure_seed;
+  const double exposure_phase = 2 * M_PI * UniformFromState(&exposure_state);
+  const double duration_s = recording.frame_count / recording.fps;
+  for (int i = 0; i < recording.frame_count; ++i) {
     FramePlan frame;
     frame.index = i;
-    frame.t_own_s = static_cast<double>(i) / fps;
+    frame.t_own_s = static_cast<double>(i) / recording.fps;
     frame.t_common_s = start_common_s + frame.t_own_s;
     frame.cam_from_world = path.CamFromWorld(frame.t_common_s);
-    if (flash_path != nullptr) {
-      frame.light_position_world =
-          flash_path->CamFromWorld(frame.t_common_s).Inverse() * flash_offset_cam_m;
-    }
+    frame.light_position_world = FlashAt(flash_path, flash_offset_cam_m, frame.t_common_s);
+    frame.exposure_scale =
+        1 + recording.exposure_drift * std::sin(2 * M_PI * frame.t_own_s / duration_s + exposure_phase);
+    frame.bands = RollingShutterBands(intrinsics.height, recording.rolling_shutter_s, frame.t_common_s,
+                                      path, flash_path, flash_offset_cam_m);
     video.frames.push_back(frame);
   }
   return video;
@@ -138,7 +172,7 @@ CapturePlan MakeCapturePlan(const SynthOptions& o, const SynthScene& scene) {
   CapturePlan plan;
   plan.view_intrinsics = PhoneIntrinsics(o.width_px, o.height_px, o.view_hfov_deg,
                                          o.view_principal_offset, o.view_distortion);
-  plan.light_intrinsics = PhoneIntrinsics(o.width_px, o.height_px, o.light_hfov_deg,
+  plan.light_intrinsics = PhoneIntrinsics(o.LightWidth(), o.LightHeight(), o.light_hfov_deg,
                                           o.light_principal_offset, o.light_distortion);
   plan.eval_intrinsics = plan.view_intrinsics.WithoutDistortion();
   plan.flash_offset_cam_m = Eigen::Vector3d(o.flash_offset_cam_m[0], o.flash_offset_cam_m[1],
@@ -151,10 +185,14 @@ CapturePlan MakeCapturePlan(const SynthOptions& o, const SynthScene& scene) {
   const double sign = UniformFromState(&state) < 0.5 ? -1.0 : 1.0;
   plan.light_start_offset_s = std::round(sign * magnitude * 1e6) / 1e6;
 
-  // Claps where both phones are recording, away from the overlap's ends.
+  // Claps where both phones record audio, away from the overlap's ends.
   const double duration = o.duration_s();
-  const double overlap_begin = std::max(0.0, plan.light_start_offset_s);
-  const double overlap_end = std::min(duration, plan.light_start_offset_s + o.light_duration_s());
+  const double overlap_begin = std::max(o.view_audio_start_s, plan.light_start_offset_s + o.light_audio_start_s);
+  const double overlap_end = std::min(o.view_audio_start_s + duration,
+                                      plan.light_start_offset_s + o.light_audio_start_s + o.light_duration_s());
+  RELIT_REQUIRE(overlap_end - overlap_begin >= 0.3, "the two phones' audio tracks overlap by only ",
+                overlap_end - overlap_begin, " s: lower audio_offset_max_s or the *_audio_start_s, or "
+                "raise frames_per_video");
   const double margin = 0.1 * (overlap_end - overlap_begin);
   plan.clap_times_common_s = PickClapTimes(overlap_begin + margin, overlap_end - margin, o.clap_count,
                                            0.05, SubSeed(o.seed, kClaps));
@@ -168,17 +206,21 @@ CapturePlan MakeCapturePlan(const SynthOptions& o, const SynthScene& scene) {
   plan.geometry_path = PathParams(o, scene, std::max(1.0, std::abs(o.view_turns)), duration, 1.0);
   const HandheldPath view_path(plan.view_path, SubSeed(o.seed, kViewPath));
   const HandheldPath light_path(plan.light_path, SubSeed(o.seed, kLightPath));
+  const RecordingParams view_recording{o.frames_per_video, static_cast<double>(o.fps), o.view_audio_rate_hz,
+                                       o.view_audio_start_s, o.view_rolling_shutter_s, o.view_exposure_drift,
+                                       SubSeed(o.seed, kViewExposure), o.display_rotation_deg};
+  const RecordingParams light_recording{o.LightFrames(), o.LightFps(), o.light_audio_rate_hz,
+                                        o.light_audio_start_s, o.light_rolling_shutter_s,
+                                        o.light_exposure_drift, SubSeed(o.seed, kLightExposure),
+                                        o.LightRotation()};
   plan.view = SampleVideo("view", "view", "flash", plan.view_intrinsics, view_path, &light_path,
-                          plan.flash_offset_cam_m, 0.0, o.frames_per_video, o.fps,
-                          o.view_audio_rate_hz);
+                          plan.flash_offset_cam_m, 0.0, view_recording);
   plan.light = SampleVideo("light", "light", "flash", plan.light_intrinsics, light_path, &light_path,
-                           plan.flash_offset_cam_m, plan.light_start_offset_s, o.LightFrames(),
-                           o.LightFps(), o.light_audio_rate_hz);
+                           plan.flash_offset_cam_m, plan.light_start_offset_s, light_recording);
   if (o.geometry_pass) {
     const HandheldPath geometry_path(plan.geometry_path, SubSeed(o.seed, kGeometryPath));
     plan.geometry = SampleVideo("geometry", "view", "environment", plan.view_intrinsics,
-                                geometry_path, nullptr, Eigen::Vector3d::Zero(), 0.0,
-                                o.frames_per_video, o.fps, o.view_audio_rate_hz);
+                                geometry_path, nullptr, Eigen::Vector3d::Zero(), 0.0, view_recording);
   }
 
   if (o.board_clip_frames > 0) {
@@ -186,6 +228,9 @@ CapturePlan MakeCapturePlan(const SynthOptions& o, const SynthScene& scene) {
                                      SubSeed(o.seed, kBoardClip));
     plan.light_board_clip = BoardClip("light", plan.light_intrinsics, o.board, o.board_clip_frames,
                                       SubSeed(o.seed, kBoardClip + 100));
+    // Exported from the phone as it shows them: turned like its videos.
+    plan.view_board_clip.display_rotation_deg = o.display_rotation_deg;
+    plan.light_board_clip.display_rotation_deg = o.LightRotation();
   }
 
   // Held-out evaluation views: away from every phone-V view direction.

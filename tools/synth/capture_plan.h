@@ -23,12 +23,35 @@
 
 namespace relit::synth {
 
+// Rows [row_begin, row_end) of a rolling-shutter frame, read at their own
+// instant: the camera and the flash where they were then.
+struct RowBand {
+  int row_begin = 0, row_end = 0;
+  double t_common_s = 0;
+  Rigid3 cam_from_world;
+  Eigen::Vector3d light_position_world = Eigen::Vector3d::Zero();
+};
+
 struct FramePlan {
   int index = 0;
-  double t_own_s = 0;      // on the recording phone's clock
+  double t_own_s = 0;      // on the recording phone's clock (middle row with a rolling shutter)
   double t_common_s = 0;   // on the common (= phone V) clock
   Rigid3 cam_from_world;
   Eigen::Vector3d light_position_world = Eigen::Vector3d::Zero();  // flash (when lit by it)
+  double exposure_scale = 1;  // auto-exposure drift: the sensor's exposure times this
+  std::vector<RowBand> bands; // rolling shutter; empty = global shutter
+};
+
+// How one phone records: frame count and rate, audio, shutter, exposure.
+struct RecordingParams {
+  int frame_count = 0;
+  double fps = 30;
+  int audio_rate_hz = 48000;
+  double audio_start_s = 0;       // audio track start relative to the first frame, own clock
+  double rolling_shutter_s = 0;   // first to last row
+  double exposure_drift = 0;      // relative amplitude of the auto-exposure drift
+  uint64_t exposure_seed = 0;     // its phase
+  int display_rotation_deg = 0;
 };
 
 struct VideoPlan {
@@ -39,7 +62,14 @@ struct VideoPlan {
   double start_common_s = 0;  // common time of frame 0 (geometry: its own session)
   double fps = 30;            // exact (29.97 is 30000/1001): frame i at t_own = i / fps
   int audio_rate_hz = 48000;
+  double audio_start_s = 0;   // audio track start relative to frame 0 in the file (own clock)
+  double rolling_shutter_s = 0;
+  double exposure_drift = 0;
+  int display_rotation_deg = 0;  // clockwise "rotate" metadata; pixels stay as rendered
   double duration_s() const { return static_cast<double>(frames.size()) / fps; }
+  // Presentation time of frame 0 in the MP4: the encoder delays the video
+  // when the audio starts first, so the file's timeline starts at 0.
+  double first_frame_pts_s() const { return audio_start_s < 0 ? -audio_start_s : 0.0; }
   std::vector<FramePlan> frames;
 };
 
@@ -83,6 +113,10 @@ uint64_t SubSeed(uint64_t seed, uint64_t stream);
 Intrinsics PhoneIntrinsics(int width_px, int height_px, double hfov_deg,
                            const std::vector<double>& principal_offset,
                            const std::vector<double>& distortion);
+
+// Rolling-shutter bands of a frame: kRollingShutterBands bands (fewer for
+// short frames), the middle row at frame.t_common_s.
+constexpr int kRollingShutterBands = 32;
 
 CapturePlan MakeCapturePlan(const SynthOptions& options, const SynthScene& scene);
 

@@ -58,6 +58,8 @@ void VideoEncodeParams::Check() const {
   RELIT_REQUIRE(display_rotation_deg == 0 || display_rotation_deg == 90 ||
                     display_rotation_deg == 180 || display_rotation_deg == 270,
                 "display rotation must be 0, 90, 180 or 270 degrees, got ", display_rotation_deg);
+  RELIT_REQUIRE(std::abs(audio_start_s) <= 0.5, "audio start must be within 0.5 s of the first frame, got ",
+                audio_start_s);
 }
 
 VideoEncoder::VideoEncoder(const std::string& output_mp4, const VideoEncodeParams& params)
@@ -69,7 +71,13 @@ VideoEncoder::VideoEncoder(const std::string& output_mp4, const VideoEncodeParam
   cmd << "ffmpeg -nostdin -y -hide_banner -loglevel error"
       << " -f rawvideo -pix_fmt rgb24 -s " << params_.width_px << "x" << params_.height_px
       << " -framerate " << FpsRational(params_.fps) << " -i -";
-  if (!params_.audio_wav.empty()) cmd << " -i " << ShellQuote(params_.audio_wav);
+  if (!params_.audio_wav.empty()) {
+    // Audio after the first frame: delayed here. Audio before it: Finish()
+    // delays the video instead (an input offset on raw frames would be
+    // rounded to whole frames, and -r would fill the gap with a copy).
+    if (params_.audio_start_s > 0) cmd << " -itsoffset " << params_.audio_start_s;
+    cmd << " -i " << ShellQuote(params_.audio_wav);
+  }
   cmd << " -map 0:v:0";
   if (!params_.audio_wav.empty()) cmd << " -map 1:a:0";
   // RGB -> BT.709 limited-range YUV, tagged as such with the sRGB transfer.
@@ -79,7 +87,8 @@ VideoEncoder::VideoEncoder(const std::string& output_mp4, const VideoEncodeParam
       << " -color_primaries bt709 -color_trc iec61966-2-1 -colorspace bt709 -color_range tv";
   if (!params_.audio_wav.empty()) cmd << " -c:a aac -b:a 192k -ar " << params_.audio_rate_hz;
   // ffmpeg 5.1 drops "rotate" when encoding; Finish() adds it by remuxing.
-  encoded_ = params_.display_rotation_deg != 0 ? output_ + ".unrotated.mp4" : output_;
+  const bool remux = params_.display_rotation_deg != 0 || params_.audio_start_s < 0;
+  encoded_ = remux ? output_ + ".encoded.mp4" : output_;
   cmd << " -movflags +faststart -f mp4 " << ShellQuote(encoded_) << " 2>" << ShellQuote(log_path_);
   pipe_ = ::popen(cmd.str().c_str(), "w");
   RELIT_REQUIRE(pipe_ != nullptr, "cannot start ffmpeg to write ", output_);
@@ -114,11 +123,21 @@ void VideoEncoder::Finish() {
   RELIT_REQUIRE(status == 0, "encoding ", output_, ": ffmpeg ", ExitDescription(status), ": ",
                 message);
   if (encoded_ != output_) {
-    RunCapture("ffmpeg -nostdin -y -v error -i " + ShellQuote(encoded_) +
-                   " -map 0 -c copy -metadata:s:v:0 rotate=" +
-                   std::to_string(params_.display_rotation_deg) + " -movflags +faststart -f mp4 " +
+    // Stream copy: the video delayed by -audio_start_s (an edit list, as
+    // phones write) and the rotation. ffmpeg 5.1 stores a "rotate" tag as a
+    // counter-clockwise display matrix angle (players turn the frames
+    // counter-clockwise by it): a clockwise rotation r is written as 360 - r
+    // (ffmpeg_io_test checks what players show).
+    const std::string video_delay =
+        params_.audio_start_s < 0 ? " -itsoffset " + std::to_string(-params_.audio_start_s) : "";
+    RunCapture("ffmpeg -nostdin -y -v error -i " + ShellQuote(encoded_) + video_delay + " -i " +
+                   ShellQuote(encoded_) + " -map 1:v -map 0:a? -c copy" +
+                   (params_.display_rotation_deg != 0
+                        ? " -metadata:s:v:0 rotate=" + std::to_string((360 - params_.display_rotation_deg) % 360)
+                        : std::string()) +
+                   " -movflags +faststart -f mp4 " +
                    ShellQuote(output_),
-               "adding rotation metadata to " + output_);
+               "remuxing " + output_ + " (rotation metadata, audio start)");
     std::filesystem::remove(encoded_);
   }
 }
@@ -139,6 +158,7 @@ MediaInfo ProbeMedia(const std::string& path) {
       info.pix_fmt = stream.value("pix_fmt", "");
       info.color_transfer = stream.value("color_transfer", "");
       info.frame_count = std::stoi(stream.value("nb_read_frames", std::string("0")));
+      info.video_start_s = std::stod(stream.value("start_time", std::string("0")));
       const std::string rate = stream.value("r_frame_rate", std::string("0/1"));
       const size_t slash = rate.find('/');
       info.fps = std::stod(rate.substr(0, slash)) / std::stod(rate.substr(slash + 1));
@@ -146,14 +166,15 @@ MediaInfo ProbeMedia(const std::string& path) {
         info.rotation_deg = std::stoi(stream["tags"]["rotate"].get<std::string>());
       } else if (stream.contains("side_data_list")) {
         for (const auto& side : stream["side_data_list"]) {
-          // ffprobe 5.1 reports the display matrix in the "rotate" tag's sense.
+          // The display matrix angle is counter-clockwise; rotation_deg is clockwise.
           if (side.contains("rotation")) {
-            info.rotation_deg = (side["rotation"].get<int>() % 360 + 360) % 360;
+            info.rotation_deg = ((-side["rotation"].get<int>()) % 360 + 360) % 360;
           }
         }
       }
     } else if (type == "audio" && info.audio_sample_rate_hz == 0) {
       info.audio_sample_rate_hz = std::stoi(stream.value("sample_rate", std::string("0")));
+      info.audio_start_s = std::stod(stream.value("start_time", std::string("0")));
     }
   }
   RELIT_REQUIRE(info.width_px > 0, path, " has no video stream");
@@ -168,7 +189,7 @@ DecodedVideo DecodeVideo(const std::string& path, bool grey) {
   video.channels = grey ? 1 : 3;
   const std::string bytes = RunCapture(
       "ffmpeg -nostdin -v error -noautorotate -i " + ShellQuote(path) +
-          " -map 0:v:0 -vf scale=in_color_matrix=bt709:in_range=tv:out_range=pc -f rawvideo -pix_fmt " +
+          " -map 0:v:0 -fps_mode passthrough -vf scale=in_color_matrix=bt709:in_range=tv:out_range=pc -f rawvideo -pix_fmt " +
           (grey ? "gray" : "rgb24") + " -",
       "decoding " + path);
   const size_t frame_bytes = static_cast<size_t>(video.width_px) * video.height_px * video.channels;

@@ -16,6 +16,7 @@ struct VideoEncodeParams {
   int height_px = 0;
   double fps = 30;                 // exact: 30000/1001 is written as such
   int audio_rate_hz = 48000;
+  double audio_start_s = 0;        // audio track start relative to the first frame (negative: before)
   int crf = 14;                    // libx264 constant rate factor (lower = better)
   std::string x264_preset = "medium";
   int display_rotation_deg = 0;    // 0/90/180/270: phone-style "rotate" metadata (clockwise)
@@ -47,7 +48,7 @@ class VideoEncoder {
 };
 
 // Decodes every frame of a video as 8-bit grey (luma) or RGB, ignoring any
-// rotation metadata. Returns frames of width*height*(1 or 3) bytes.
+// rotation metadata, one output frame per stored frame. Returns frames of width*height*(1 or 3) bytes.
 struct DecodedVideo {
   int width_px = 0, height_px = 0, channels = 0;
   std::vector<std::vector<uint8_t>> frames;
@@ -58,13 +59,16 @@ DecodedVideo DecodeVideo(const std::string& path, bool grey);
 std::vector<float> DecodeAudio(const std::string& path, int sample_rate_hz);
 
 // Stream properties read with ffprobe: width, height, frame count, frame rate,
-// rotation in the "rotate" tag's sense (0 if none), audio sample rate (0 if
+// clockwise display rotation as players apply it (0 if none), audio sample rate (0 if
 // no audio).
 struct MediaInfo {
   int width_px = 0, height_px = 0, frame_count = 0;
   double fps = 0;
   int rotation_deg = 0;
   int audio_sample_rate_hz = 0;
+  // Stream start times (ffprobe start_time): the first frame's and the first
+  // decoded audio sample's presentation time in the file.
+  double video_start_s = 0, audio_start_s = 0;
   std::string video_codec, pix_fmt, color_transfer;
 };
 MediaInfo ProbeMedia(const std::string& path);

@@ -37,35 +37,38 @@ Image AlphaChannel(const render::RenderResult& result) {
 }
 
 // Records the room sound of every video into WAV files under truth/audio.
+// Each phone records as long as its video, at its own sample rate, from its
+// audio_start_s on its own clock.
 void WriteAudio(const SynthOptions& o, const CapturePlan& plan, const fs::path& root) {
   const RoomSoundParams params;
   const double duration = o.duration_s();
-  // Each phone records as long as its video, at its own sample rate.
   const auto samples = [](const VideoPlan& video) {
     return static_cast<int64_t>(std::llround(video.duration_s() * video.audio_rate_hz));
   };
-  const double begin = std::min(0.0, plan.light_start_offset_s) - 0.01;
-  const double end =
-      std::max(duration, plan.light_start_offset_s + plan.light.duration_s()) + 0.01;
+  const auto begin_s = [](const VideoPlan& video) { return video.start_common_s + video.audio_start_s; };
+  const double begin = std::min(begin_s(plan.view), begin_s(plan.light)) - 0.01;
+  const double end = std::max(begin_s(plan.view) + plan.view.duration_s(),
+                              begin_s(plan.light) + plan.light.duration_s()) + 0.01;
   const RoomSound room(params, begin, end, plan.clap_times_common_s, SubSeed(o.seed, kRoomSound));
   fs::create_directories(root / "truth/audio");
   WriteWav((root / "truth/audio/view.wav").string(),
-           room.Record(0.0, samples(plan.view), plan.view.audio_rate_hz, 1.0,
+           room.Record(begin_s(plan.view), samples(plan.view), plan.view.audio_rate_hz, 1.0,
                        SubSeed(o.seed, kMic)),
            plan.view.audio_rate_hz);
   WriteWav((root / "truth/audio/light.wav").string(),
-           room.Record(plan.light_start_offset_s, samples(plan.light), plan.light.audio_rate_hz,
+           room.Record(begin_s(plan.light), samples(plan.light), plan.light.audio_rate_hz,
                        0.8, SubSeed(o.seed, kMic + 1)),
            plan.light.audio_rate_hz);
   if (!plan.geometry.frames.empty()) {
     // A separate session: its own room sound and claps.
-    const RoomSound other(params, -0.01, duration + 0.01,
+    const double geometry_begin = std::min(0.0, plan.geometry.audio_start_s) - 0.01;
+    const RoomSound other(params, geometry_begin, duration + plan.geometry.audio_start_s + 0.02,
                           PickClapTimes(0.1 * duration, 0.9 * duration, o.clap_count, 0.05,
                                         SubSeed(o.seed, kGeometryRoom)),
                           SubSeed(o.seed, kGeometryRoom));
     WriteWav((root / "truth/audio/geometry.wav").string(),
-             other.Record(0.0, samples(plan.geometry), plan.geometry.audio_rate_hz, 1.0,
-                          SubSeed(o.seed, kMic + 2)),
+             other.Record(plan.geometry.audio_start_s, samples(plan.geometry), plan.geometry.audio_rate_hz,
+                          1.0, SubSeed(o.seed, kMic + 2)),
              plan.geometry.audio_rate_hz);
   }
 }
@@ -89,36 +92,94 @@ render::RenderOptions FrameRenderOptions(int spp, int max_depth, uint64_t seed,
   return options;
 }
 
+// The optional flash shadow of phone V's frames (SynthOptions
+// view_flash_shadow_*): board and table pixels beyond a line through the
+// board, facing away from the flash, darkened. The pixel-centre ray decides.
+void ApplyFlashShadow(const SynthOptions& o, const Eigen::Vector3d& flash_world, render::RenderResult* result) {
+  Eigen::Vector2d away = -flash_world.head<2>();  // board centre (world origin) minus flash, horizontal
+  if (away.norm() < 1e-6) return;
+  away.normalize();
+  const float factor = static_cast<float>(o.view_flash_shadow_factor);
+  for (int y = 0; y < result->radiance.height(); ++y) {
+    for (int x = 0; x < result->radiance.width(); ++x) {
+      const int id = static_cast<int>(std::lround(result->object_id.at(x, y, 0)));
+      if (id != kBoardObjectId && id != kTableObjectId) continue;
+      const Eigen::Vector2d p(result->position.at(x, y, 0), result->position.at(x, y, 1));
+      if (p.dot(away) <= o.view_flash_shadow_edge_m) continue;
+      for (int c = 0; c < 3; ++c) result->radiance.at(x, y, c) *= factor;
+    }
+  }
+}
+
+// One frame's radiance and alpha: in one piece, or band by band for a
+// rolling shutter (each band a crop of the lens: same pixels, its own pose
+// and flash position).
+render::RenderResult RenderFrame(const SynthOptions& o, const VideoPlan& video, const FramePlan& frame,
+                                 uint64_t seed, const std::vector<int>& alpha_ids, render::Scene* scene) {
+  const auto set_flash = [&](const Eigen::Vector3d& position) {
+    if (video.lighting != "flash") return;
+    scene->ClearLights();
+    render::PointLight flash;
+    flash.position = F(position);
+    flash.intensity = render::Rgb::Constant(static_cast<float>(o.flash_intensity_w_per_sr));
+    scene->AddLight(flash);
+  };
+  const render::RenderOptions options = FrameRenderOptions(o.samples_per_pixel, o.max_depth, seed, alpha_ids);
+  const bool shadow = video.name == "view" && o.view_flash_shadow_factor < 1;
+  if (frame.bands.empty()) {
+    set_flash(frame.light_position_world);
+    render::RenderResult result = render::RenderImage(*scene, Camera(video.intrinsics, frame.cam_from_world), options);
+    if (shadow) ApplyFlashShadow(o, frame.light_position_world, &result);
+    return result;
+  }
+  const int width = video.intrinsics.width, height = video.intrinsics.height;
+  render::RenderResult full;
+  full.radiance = Image(width, height, 3);
+  full.alpha = Image(width, height, 1);
+  for (size_t b = 0; b < frame.bands.size(); ++b) {
+    const RowBand& band = frame.bands[b];
+    Intrinsics crop = video.intrinsics;
+    crop.height = band.row_end - band.row_begin;
+    crop.cy -= band.row_begin;
+    set_flash(band.light_position_world);
+    render::RenderOptions band_options = options;
+    band_options.seed = render::MixBits(seed + 0x9e37 * (b + 1));
+    render::RenderResult part = render::RenderImage(*scene, Camera(crop, band.cam_from_world), band_options);
+    if (shadow) ApplyFlashShadow(o, band.light_position_world, &part);
+    for (int y = 0; y < crop.height; ++y) {
+      for (int x = 0; x < width; ++x) {
+        for (int c = 0; c < 3; ++c) full.radiance.at(x, band.row_begin + y, c) = part.radiance.at(x, y, c);
+        full.alpha.at(x, band.row_begin + y, 0) = part.alpha.at(x, y, 0);
+      }
+    }
+  }
+  return full;
+}
+
 void RenderVideo(const SynthOptions& o, const VideoPlan& video, int video_index,
                  const SynthScene& synth_scene, render::Scene* scene,
                  const render::EnvironmentLight& environment, const fs::path& root, bool write_alpha,
                  Progress* progress) {
   VideoEncodeParams encode;
-  encode.width_px = o.width_px;
-  encode.height_px = o.height_px;
+  encode.width_px = video.intrinsics.width;
+  encode.height_px = video.intrinsics.height;
   encode.fps = video.fps;
   encode.audio_rate_hz = video.audio_rate_hz;
+  encode.audio_start_s = video.audio_start_s;
   encode.crf = o.crf;
-  encode.display_rotation_deg = o.display_rotation_deg;
+  encode.display_rotation_deg = video.display_rotation_deg;
   encode.audio_wav = (root / ("truth/audio/" + video.name + ".wav")).string();
   VideoEncoder encoder((root / (video.name + ".mp4")).string(), encode);
-  const SensorParams sensor = Sensor(o);
   const std::vector<int> alpha_ids = synth_scene.ForegroundIds();
-  for (const FramePlan& frame : video.frames) {
+  if (video.lighting != "flash") {
     scene->ClearLights();
-    if (video.lighting == "flash") {
-      render::PointLight flash;
-      flash.position = F(frame.light_position_world);
-      flash.intensity = render::Rgb::Constant(static_cast<float>(o.flash_intensity_w_per_sr));
-      scene->AddLight(flash);
-    } else {
-      scene->SetEnvironment(environment);
-    }
+    scene->SetEnvironment(environment);
+  }
+  for (const FramePlan& frame : video.frames) {
     const uint64_t stream = kRender + static_cast<uint64_t>(video_index) * 1000000 + frame.index;
-    const render::RenderResult result =
-        render::RenderImage(*scene, Camera(video.intrinsics, frame.cam_from_world),
-                            FrameRenderOptions(o.samples_per_pixel, o.max_depth,
-                                               SubSeed(o.seed, stream), alpha_ids));
+    const render::RenderResult result = RenderFrame(o, video, frame, SubSeed(o.seed, stream), alpha_ids, scene);
+    SensorParams sensor = Sensor(o);
+    sensor.exposure *= frame.exposure_scale;
     encoder.AddFrame(SensorCapture(result.radiance, sensor, SubSeed(o.seed, stream), 1));
     if (write_alpha) {
       WriteImage((root / AlphaPath(video.name, frame.index)).string(), AlphaChannel(result),
@@ -151,13 +212,15 @@ void RenderBoardClip(const SynthOptions& o, const VideoPlan& clip, int clip_inde
         render::RenderImage(scene, Camera(clip.intrinsics, frame.cam_from_world),
                             FrameRenderOptions(o.samples_per_pixel, o.max_depth, SubSeed(o.seed, stream), {}));
     const std::vector<uint8_t> rgb = SensorCapture(result.radiance, sensor, SubSeed(o.seed, stream), 1);
-    Image png(o.width_px, o.height_px, 3);
-    for (int y = 0; y < o.height_px; ++y) {
-      for (int x = 0; x < o.width_px; ++x) {
-        for (int c = 0; c < 3; ++c) png.at(x, y, c) = rgb[(static_cast<size_t>(y) * o.width_px + x) * 3 + c] / 255.0f;
+    const int width = clip.intrinsics.width, height = clip.intrinsics.height;
+    Image png(width, height, 3);
+    for (int y = 0; y < height; ++y) {
+      for (int x = 0; x < width; ++x) {
+        for (int c = 0; c < 3; ++c) png.at(x, y, c) = rgb[(static_cast<size_t>(y) * width + x) * 3 + c] / 255.0f;
       }
     }
-    WriteImage((root / BoardClipFramePath(clip.phone, frame.index)).string(), png, PixelStorage::kUint8);
+    WriteImage((root / BoardClipFramePath(clip.phone, frame.index)).string(),
+               RotatedForDisplay(png, clip.display_rotation_deg), PixelStorage::kUint8);
     progress->Advance();
   }
 }
@@ -210,6 +273,23 @@ int RenderEvalSet(const SynthOptions& o, const CapturePlan& plan, const SynthSce
 }
 
 }  // namespace
+
+Image RotatedForDisplay(const Image& image, int rotation_deg) {
+  if (rotation_deg == 0) return image;
+  const int w = image.width(), h = image.height();
+  const bool swap = rotation_deg == 90 || rotation_deg == 270;
+  Image out(swap ? h : w, swap ? w : h, image.channels());
+  for (int y = 0; y < out.height(); ++y) {
+    for (int x = 0; x < out.width(); ++x) {
+      int sx = x, sy = y;  // source pixel of displayed pixel (x, y)
+      if (rotation_deg == 90) { sx = y; sy = h - 1 - x; }
+      if (rotation_deg == 180) { sx = w - 1 - x; sy = h - 1 - y; }
+      if (rotation_deg == 270) { sx = w - 1 - y; sy = x; }
+      for (int c = 0; c < image.channels(); ++c) out.at(x, y, c) = image.at(sx, sy, c);
+    }
+  }
+  return out;
+}
 
 SynthSummary RunSynthImpl(const SynthOptions& options) {
   options.Check();

@@ -4,6 +4,7 @@
 
 #include <string>
 
+#include "core/image.h"
 #include "tools/synth/synth_options.h"
 
 namespace relit::synth {
@@ -19,6 +20,11 @@ struct SynthSummary {
 // Renders everything described by `options` into options.out (atomically:
 // the directory appears complete or not at all). Throws relit::Error.
 SynthSummary RunSynthImpl(const SynthOptions& options);
+
+// The image as a phone shows it: turned clockwise by its display rotation
+// (0, 90, 180, 270), as players apply the rotation of the videos. Board-clip
+// PNGs are written this way.
+Image RotatedForDisplay(const Image& image, int rotation_deg);
 
 // Command line: parses flags and an optional --config YAML, then calls
 // RunSynthImpl. Returns the process exit code; errors propagate as relit::Error.

@@ -17,6 +17,30 @@ double SynthOptions::ExactFps(double fps) {
 
 std::vector<std::string> SizeNames() { return {"tiny", "demo", "full"}; }
 
+namespace {
+
+// tiny and demo film with two phones that differ as real ones do (issue 25),
+// so the tests exercise what the pipeline must not assume: phone L has its
+// own frame size, 29.97 fps with 10% more frames, 44.1 kHz audio starting
+// after its first frame (phone V's before), a drifting auto-exposure, and
+// both read their rows over 1 ms. The readout is short because these sizes
+// move the phones 3x faster than a real capture; phone V keeps a fixed
+// exposure (relight assumes one exposure for its training frames).
+void TwoDifferentPhones(SynthOptions* o, int light_width_px, int light_height_px) {
+  o->light_width_px = light_width_px;
+  o->light_height_px = light_height_px;
+  o->light_fps = 29.97;
+  o->light_frames_per_video = o->frames_per_video * 11 / 10;
+  o->light_audio_rate_hz = 44100;
+  o->view_audio_start_s = -0.021;
+  o->light_audio_start_s = 0.034;
+  o->view_rolling_shutter_s = 0.001;
+  o->light_rolling_shutter_s = 0.001;
+  o->light_exposure_drift = 0.15;
+}
+
+}  // namespace
+
 SynthOptions SynthOptions::ForSize(const std::string& size) {
   SynthOptions o;
   o.size = size;
@@ -40,6 +64,7 @@ SynthOptions SynthOptions::ForSize(const std::string& size) {
     o.board.dictionary = "DICT_4X4_50";
     o.clap_count = 3;
     o.eval_views = 2;
+    TwoDifferentPhones(&o, 352, 264);
     o.eval_interpolation_views = 1;
     o.eval_samples_per_pixel = 8;
     o.eval_point_lights = 2;
@@ -65,6 +90,7 @@ SynthOptions SynthOptions::ForSize(const std::string& size) {
     o.eval_samples_per_pixel = 64;
     o.envmap_width_px = 512;
     o.board.dictionary = "DICT_4X4_50";
+    TwoDifferentPhones(&o, 512, 384);
   } else if (size == "full") {
     // Phone-like 16:9 frames, large enough for the default AprilTag board
     // across the whole 0.3-0.7 m range.
@@ -111,6 +137,17 @@ void SynthOptions::Read(OptionsReader& r) {
   r.ReadRange("light_fps", &light_fps, 0.0, 240.0);
   r.ReadRange("view_audio_rate_hz", &view_audio_rate_hz, 8000, 192000);
   r.ReadRange("light_audio_rate_hz", &light_audio_rate_hz, 8000, 192000);
+  r.ReadRange("light_width_px", &light_width_px, 0, 8192);
+  r.ReadRange("light_height_px", &light_height_px, 0, 8192);
+  r.Read("light_display_rotation_deg", &light_display_rotation_deg);
+  r.ReadRange("view_audio_start_s", &view_audio_start_s, -0.5, 0.5);
+  r.ReadRange("light_audio_start_s", &light_audio_start_s, -0.5, 0.5);
+  r.ReadRange("view_rolling_shutter_s", &view_rolling_shutter_s, 0.0, 0.1);
+  r.ReadRange("light_rolling_shutter_s", &light_rolling_shutter_s, 0.0, 0.1);
+  r.ReadRange("view_exposure_drift", &view_exposure_drift, 0.0, 0.5);
+  r.ReadRange("light_exposure_drift", &light_exposure_drift, 0.0, 0.5);
+  r.ReadRange("view_flash_shadow_factor", &view_flash_shadow_factor, 0.0, 1.0);
+  r.ReadRange("view_flash_shadow_edge_m", &view_flash_shadow_edge_m, -1.0, 1.0);
   r.ReadRange("view_hfov_deg", &view_hfov_deg, 20.0, 120.0);
   r.ReadRange("light_hfov_deg", &light_hfov_deg, 20.0, 120.0);
   r.Read("view_principal_offset", &view_principal_offset);
@@ -185,6 +222,30 @@ void SynthOptions::Check() const {
   RELIT_REQUIRE(display_rotation_deg == 0 || display_rotation_deg == 90 ||
                     display_rotation_deg == 180 || display_rotation_deg == 270,
                 "display_rotation_deg must be 0, 90, 180 or 270, got ", display_rotation_deg);
+  RELIT_REQUIRE(light_display_rotation_deg == -1 || light_display_rotation_deg == 0 ||
+                    light_display_rotation_deg == 90 || light_display_rotation_deg == 180 ||
+                    light_display_rotation_deg == 270,
+                "light_display_rotation_deg must be -1 (= display_rotation_deg), 0, 90, 180 or 270, got ",
+                light_display_rotation_deg);
+  RELIT_REQUIRE((light_width_px == 0) == (light_height_px == 0),
+                "light_width_px and light_height_px must both be 0 (= width_px x height_px) or both set, got ",
+                light_width_px, "x", light_height_px);
+  RELIT_REQUIRE(LightWidth() % 2 == 0 && LightHeight() % 2 == 0 && LightWidth() >= 16 && LightHeight() >= 16,
+                "light_width_px and light_height_px must be even and >= 16 (H.264 yuv420p), got ",
+                LightWidth(), "x", LightHeight());
+  RELIT_REQUIRE(std::abs(view_audio_start_s) <= 0.5 && std::abs(light_audio_start_s) <= 0.5,
+                "view_audio_start_s and light_audio_start_s must be in [-0.5, 0.5] s");
+  RELIT_REQUIRE(view_rolling_shutter_s >= 0 && light_rolling_shutter_s >= 0 &&
+                    view_rolling_shutter_s < 1.0 / fps && light_rolling_shutter_s < 1.0 / LightFps(),
+                "view_rolling_shutter_s and light_rolling_shutter_s must be in [0, 1 / fps) s (the "
+                "readout of one frame), got ", view_rolling_shutter_s, " and ", light_rolling_shutter_s);
+  RELIT_REQUIRE(view_exposure_drift >= 0 && view_exposure_drift <= 0.5 && light_exposure_drift >= 0 &&
+                    light_exposure_drift <= 0.5,
+                "view_exposure_drift and light_exposure_drift must be in [0, 0.5] (relative amplitude)");
+  RELIT_REQUIRE(view_flash_shadow_factor >= 0 && view_flash_shadow_factor <= 1 &&
+                    std::abs(view_flash_shadow_edge_m) <= 1,
+                "view_flash_shadow_factor must be in [0, 1] (1 = no shadow) and view_flash_shadow_edge_m "
+                "in [-1, 1] m, got ", view_flash_shadow_factor, " and ", view_flash_shadow_edge_m);
   for (const auto* offset : {&view_principal_offset, &light_principal_offset}) {
     RELIT_REQUIRE(offset->size() == 2 && std::abs((*offset)[0]) < 0.2 && std::abs((*offset)[1]) < 0.2,
                   "principal offsets must be 2 numbers, fractions of the image size below 0.2");
@@ -240,6 +301,14 @@ nlohmann::json SynthOptions::ToJson() const {
       {"max_depth", max_depth}, {"crf", crf}, {"display_rotation_deg", display_rotation_deg},
       {"light_frames_per_video", light_frames_per_video}, {"light_fps", light_fps},
       {"view_audio_rate_hz", view_audio_rate_hz}, {"light_audio_rate_hz", light_audio_rate_hz},
+      {"light_width_px", light_width_px}, {"light_height_px", light_height_px},
+      {"light_display_rotation_deg", light_display_rotation_deg},
+      {"view_audio_start_s", view_audio_start_s}, {"light_audio_start_s", light_audio_start_s},
+      {"view_rolling_shutter_s", view_rolling_shutter_s},
+      {"light_rolling_shutter_s", light_rolling_shutter_s},
+      {"view_exposure_drift", view_exposure_drift}, {"light_exposure_drift", light_exposure_drift},
+      {"view_flash_shadow_factor", view_flash_shadow_factor},
+      {"view_flash_shadow_edge_m", view_flash_shadow_edge_m},
       {"view_hfov_deg", view_hfov_deg}, {"light_hfov_deg", light_hfov_deg},
       {"view_principal_offset", view_principal_offset},
       {"light_principal_offset", light_principal_offset},

@@ -49,6 +49,31 @@ struct SynthOptions {
   double light_fps = 0.0;
   int view_audio_rate_hz = 48000;
   int light_audio_rate_hz = 48000;
+  // More ways two real phones differ. Phone L's frame size (0 = width_px /
+  // height_px) and display rotation (-1 = display_rotation_deg, which is
+  // phone V's). Where each audio track starts in its file relative to the
+  // first video frame (seconds; negative = audio starts first).
+  int light_width_px = 0;
+  int light_height_px = 0;
+  int light_display_rotation_deg = -1;
+  double view_audio_start_s = 0.0;
+  double light_audio_start_s = 0.0;
+  // Rolling shutter: time from the first to the last sensor row (0 = global
+  // shutter); the frame's timestamp and truth pose are the middle row's.
+  double view_rolling_shutter_s = 0.0;
+  double light_rolling_shutter_s = 0.0;
+  // Auto-exposure drift: the exposure follows exposure * (1 + a sin(2 pi t /
+  // duration + phase)) over each video, a = this relative amplitude.
+  double view_exposure_drift = 0.0;
+  double light_exposure_drift = 0.0;
+  // A flash shadow over most of the board in phone V's frames (as a real
+  // flash casts behind the object and the person holding phone L): board
+  // and table pixels farther than view_flash_shadow_edge_m beyond the board
+  // centre, along the flash's horizontal direction, get their radiance
+  // times view_flash_shadow_factor (1 = no such shadow). Not traced: a mask
+  // on the rendered radiance, see docs/synthetic.md.
+  double view_flash_shadow_factor = 1.0;
+  double view_flash_shadow_edge_m = 0.0;
 
   // Phone lenses: horizontal field of view, principal point offset (fraction
   // of the image size) and OpenCV distortion (k1, k2, p1, p2, k3).
@@ -111,6 +136,11 @@ struct SynthOptions {
   int LightFrames() const { return light_frames_per_video > 0 ? light_frames_per_video : frames_per_video; }
   double LightFps() const { return ExactFps(light_fps > 0 ? light_fps : fps); }
   double light_duration_s() const { return LightFrames() / LightFps(); }
+  int LightWidth() const { return light_width_px > 0 ? light_width_px : width_px; }
+  int LightHeight() const { return light_height_px > 0 ? light_height_px : height_px; }
+  int LightRotation() const {
+    return light_display_rotation_deg >= 0 ? light_display_rotation_deg : display_rotation_deg;
+  }
   // 29.97 -> 30000/1001 (NTSC-style rates), other rates unchanged.
   static double ExactFps(double fps);
 };

@@ -119,7 +119,7 @@ TEST(CapturePlan, PhoneLMovesAboutThreeTimesFasterAndCarriesTheFlash) {
       EXPECT_GT(d, options.distance_min_m - 0.02);
       EXPECT_LT(d, options.distance_max_m + 0.02);
     }
-    EXPECT_NEAR(plan.light.frames[5].t_common_s, 5.0 / options.fps + offset, 1e-12);
+    EXPECT_NEAR(plan.light.frames[5].t_common_s, 5.0 / options.LightFps() + offset, 1e-12);
     // View and light directions are not correlated: the angle between the
     // two phones (seen from the object) takes many values.
     double min_angle = M_PI, max_angle = 0;
@@ -156,6 +156,48 @@ TEST(CapturePlan, PhoneLHasItsOwnFrameCountAndRate) {
   EXPECT_NEAR(plan.light.frames[30].t_common_s,
               30 * 1001.0 / 30000 + plan.light_start_offset_s, 1e-12);
   EXPECT_NEAR(plan.view.frames[29].t_own_s, 29 / 30.0, 1e-12);
+}
+
+// The tiny preset's phones differ in size; a rolling shutter reads rows
+// over its readout with the middle row at the frame's time; the exposure
+// drifts within its amplitude (issue 25).
+TEST(CapturePlan, RollingShutterBandsSizesAndExposureDrift) {
+  SynthOptions options = SynthOptions::ForSize("tiny");
+  options.out = "unused";
+  options.light_rolling_shutter_s = 0.02;
+  options.light_exposure_drift = 0.2;
+  SynthScene scene;
+  const CapturePlan plan = MakeCapturePlan(options, scene);
+  EXPECT_EQ(plan.light_intrinsics.width, 352);
+  EXPECT_EQ(plan.light_intrinsics.height, 264);
+  EXPECT_EQ(plan.view_intrinsics.width, 320);
+  EXPECT_NEAR(plan.light.audio_start_s, 0.034, 1e-12);
+  double low = 2, high = 0;
+  for (const FramePlan& frame : plan.light.frames) {
+    ASSERT_EQ(frame.bands.size(), static_cast<size_t>(kRollingShutterBands));
+    EXPECT_EQ(frame.bands.front().row_begin, 0);
+    EXPECT_EQ(frame.bands.back().row_end, 264);
+    for (size_t b = 1; b < frame.bands.size(); ++b) {
+      EXPECT_EQ(frame.bands[b].row_begin, frame.bands[b - 1].row_end);
+      EXPECT_GT(frame.bands[b].t_common_s, frame.bands[b - 1].t_common_s);
+    }
+    // Each band at its middle row's time; row 0 half a readout before the frame time.
+    for (const RowBand& band : frame.bands) {
+      const double middle_row = 0.5 * (band.row_begin + band.row_end);
+      EXPECT_NEAR(band.t_common_s, frame.t_common_s + (middle_row / 264 - 0.5) * 0.02, 1e-12);
+    }
+    EXPECT_NEAR(frame.bands.front().t_common_s, frame.t_common_s - 0.01, 0.02 / kRollingShutterBands);
+    // The flash moves with phone L within the readout.
+    EXPECT_GT((frame.bands.back().light_position_world - frame.bands.front().light_position_world).norm(), 1e-4);
+    low = std::min(low, frame.exposure_scale);
+    high = std::max(high, frame.exposure_scale);
+  }
+  EXPECT_GE(low, 0.8 - 1e-12);
+  EXPECT_LE(high, 1.2 + 1e-12);
+  EXPECT_GT(high - low, 0.2);  // 33 frames over one period
+  for (const FramePlan& frame : plan.view.frames) EXPECT_EQ(frame.exposure_scale, 1.0);
+  options.light_rolling_shutter_s = 0.05;  // longer than a 29.97 fps frame
+  EXPECT_THROW(options.Check(), std::runtime_error);
 }
 
 }  // namespace

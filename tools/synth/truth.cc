@@ -29,6 +29,7 @@ nlohmann::json VideoJson(const VideoPlan& video, const SynthOptions& o, bool wit
                             {"camera_center_world_m", Vec(f.cam_from_world.Inverse().translation)}};
     if (video.lighting == "flash") frame["light_position_world_m"] = Vec(f.light_position_world);
     if (with_alpha) frame["alpha"] = AlphaPath(video.name, f.index);
+    if (video.exposure_drift > 0) frame["exposure_scale"] = f.exposure_scale;
     frames.push_back(frame);
   }
   nlohmann::json j = {{"file", video.name + ".mp4"},
@@ -38,9 +39,19 @@ nlohmann::json VideoJson(const VideoPlan& video, const SynthOptions& o, bool wit
                       {"audio_sample_rate_hz", video.audio_rate_hz},
                       {"frame_count", static_cast<int>(video.frames.size())},
                       {"start_common_s", video.start_common_s},
-                      {"display_rotation_deg", o.display_rotation_deg},
+                      {"display_rotation_deg", video.display_rotation_deg},
+                      {"audio_start_own_s", video.audio_start_s},
+                      {"first_frame_pts_s", video.first_frame_pts_s()},
+                      {"rolling_shutter_s", video.rolling_shutter_s},
+                      {"exposure_drift", video.exposure_drift},
                       {"intrinsics", ToJson(video.intrinsics)},
                       {"frames", frames}};
+  if (video.name == "view" && o.view_flash_shadow_factor < 1) {
+    j["flash_shadow"] = {{"factor", o.view_flash_shadow_factor},
+                         {"edge_m", o.view_flash_shadow_edge_m},
+                         {"model", "board and table pixels p with p_xy . unit(-flash_xy) > edge_m: "
+                                   "radiance times factor (a mask, not traced)"}};
+  }
   if (video.lighting == "environment") {
     j["environment"] = {{"file", kGeometryEnvmapPath}, {"scale", o.geometry_ambient_scale}};
     j["start_common_s"] = nullptr;  // a separate session with its own clock
@@ -108,8 +119,16 @@ nlohmann::json MakeTruthJson(const SynthOptions& o, const SynthScene& scene, con
       {"time", "t_common = t_view = t_light + light_start_offset_s; frame i of a video is at "
                "t_own = i / fps on its phone's clock (videos.<name>.fps; phones may differ); light_start_offset_s > 0 means phone L "
                "started recording after phone V"},
-      {"audio", "both recordings start with their first video frame; the shared room sound at "
-                "common time t is heard at t - start_common_s in each file"}};
+      {"audio", "each audio track starts audio_start_own_s after its video's first frame (own "
+                "clock); the shared room sound at common time t is heard at t - start_common_s in "
+                "each file"},
+      {"container_time", "t_own_s counts from a video's first frame; in the MP4 that frame is at "
+                         "first_frame_pts_s (> 0 when the audio starts first), so a reader that "
+                         "uses presentation timestamps sees t_own_s + first_frame_pts_s"},
+      {"rolling_shutter", "rows are read top to bottom (stored pixels) over rolling_shutter_s; "
+                          "t_own_s, t_common_s and cam_from_world are the middle row's"},
+      {"display_rotation", "intrinsics and cam_from_world are for the stored pixels; players and "
+                           "relit-capture turn the frames clockwise by display_rotation_deg"}};
   j["fps"] = o.fps;
   j["light_start_offset_s"] = plan.light_start_offset_s;
   j["audio"] = {{"sample_rate_hz", o.view_audio_rate_hz},
@@ -139,7 +158,8 @@ nlohmann::json MakeTruthJson(const SynthOptions& o, const SynthScene& scene, con
                  {"read_noise_e", o.read_noise_e},
                  {"model", "value = clamp(exposure * radiance); Poisson(value * full_well_e) + "
                            "N(0, read_noise_e^2) electrons; / full_well_e; clamp; sRGB; 8-bit"},
-                 {"not_simulated", {"rolling shutter", "auto-exposure", "white balance",
+                 {"exposure_drift", "per frame: exposure times videos.<name>.frames[i].exposure_scale"},
+                 {"not_simulated", {"white balance",
                                     "motion blur", "vignetting", "phones visible to each other"}}};
   j["phones"] = {{"view", {{"intrinsics", ToJson(plan.view_intrinsics)}, {"flash", false}}},
                  {"light", {{"intrinsics", ToJson(plan.light_intrinsics)}, {"flash", true}}}};
