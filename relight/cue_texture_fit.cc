@@ -70,21 +70,24 @@ void CueFitOptions::Read(OptionsReader& reader) {
   reader.ReadRange("coarse_levels", &coarse_levels, 0, 8);
   reader.ReadRange("max_pixels", &max_pixels, int64_t{1000}, int64_t{1} << 40);
   reader.ReadRange("saturation_level", &saturation_level, 0.0, 1e9);
+  reader.ReadRange("align_rounds", &align_rounds, 0, 20);
+  reader.ReadRange("max_shift_px", &max_shift_px, 0.0, 100.0);
   reader.Finish();
 }
 
 void CueFitOptions::Check() const {
   RELIT_REQUIRE(smoothness_diffuse >= 0 && smoothness_specular >= 0 && ridge > 0 && iterations_per_level >= 1 &&
-                    tolerance >= 0 && coarse_levels >= 0 && max_pixels >= 1000 && saturation_level >= 0,
+                    tolerance >= 0 && coarse_levels >= 0 && max_pixels >= 1000 && saturation_level >= 0 &&
+                    align_rounds >= 0 && max_shift_px >= 0,
                 "cue_fit: smoothness >= 0, ridge > 0, iterations_per_level >= 1, coarse_levels >= 0 and "
-                "max_pixels >= 1000 and saturation_level >= 0 required");
+                "max_pixels >= 1000, saturation_level >= 0, align_rounds >= 0 and max_shift_px >= 0 required");
 }
 
 nlohmann::json CueFitOptions::ToJson() const {
   return {{"smoothness_diffuse", smoothness_diffuse}, {"smoothness_specular", smoothness_specular},
           {"ridge", ridge},   {"iterations_per_level", iterations_per_level},
           {"tolerance", tolerance}, {"coarse_levels", coarse_levels}, {"max_pixels", max_pixels},
-          {"saturation_level", saturation_level}};
+          {"saturation_level", saturation_level}, {"align_rounds", align_rounds}, {"max_shift_px", max_shift_px}};
 }
 
 CueTextureFit::CueTextureFit(int resolution_px, const CueFitOptions& options)
@@ -108,11 +111,11 @@ void CueTextureFit::AddPixel(const float* cues, float u, float v, const float* t
   s.v = v;
   std::copy(cues, cues + kWeights, s.cues.begin());
   std::copy(target_rgb, target_rgb + 3, s.target.begin());
-  samples_.push_back(s);
-  if (static_cast<int64_t>(samples_.size()) >= 2 * options_.max_pixels) {
+  loose_.push_back(s);
+  if (static_cast<int64_t>(loose_.size()) >= 2 * options_.max_pixels) {
     size_t kept = 0;
-    for (size_t i = 0; i < samples_.size(); i += 2) samples_[kept++] = samples_[i];
-    samples_.resize(kept);
+    for (size_t i = 0; i < loose_.size(); i += 2) loose_[kept++] = loose_[i];
+    loose_.resize(kept);
     stride_ *= 2;
   }
 }
@@ -123,14 +126,171 @@ void CueTextureFit::AddFrame(const Image& cue_frame, const Image& target_rgb, co
   RELIT_REQUIRE(cue_frame.width() == target_rgb.width() && cue_frame.height() == target_rgb.height() &&
                     matte.width() == cue_frame.width() && matte.height() == cue_frame.height(),
                 "cue fit: cue frame, target and matte differ in size");
+  const size_t n = static_cast<size_t>(cue_frame.width()) * cue_frame.height();
+  std::vector<float> cues(n * kWeights), uv(n * 2), coverage(n), target(n * 3), alpha(n);
   for (int y = 0; y < cue_frame.height(); ++y) {
     for (int x = 0; x < cue_frame.width(); ++x) {
+      const size_t i = static_cast<size_t>(y) * cue_frame.width() + x;
       const float* p = cue_frame.pixel(x, y);
-      if (matte.at(x, y, 0) < 0.5f || p[21] < 0.5f) continue;
-      const float target[3] = {target_rgb.at(x, y, 0), target_rgb.at(x, y, 1), target_rgb.at(x, y, 2)};
-      AddPixel(p, p[15], p[16], target);
+      std::copy(p, p + kWeights, &cues[i * kWeights]);
+      uv[2 * i] = p[15];
+      uv[2 * i + 1] = p[16];
+      coverage[i] = p[21];
+      for (int c = 0; c < 3; ++c) target[3 * i + c] = target_rgb.at(x, y, c);
+      alpha[i] = matte.at(x, y, 0);
     }
   }
+  AddFrame({cue_frame.width(), cue_frame.height(), cues.data(), uv.data(), coverage.data(), target.data(),
+            alpha.data()});
+}
+
+std::array<double, 2> CueTextureFit::FrameShift(int i) const {
+  for (const Frame& f : frames_) {
+    if (f.index == i) return f.shift;
+  }
+  return {0, 0};
+}
+
+void CueTextureFit::AddFrame(const FramePixels& in) {
+  solved_ = false;
+  const int index = frames_added_++;
+  // The crop: the proxy's coverage plus room for the largest shift.
+  int x0 = in.width, y0 = in.height, x1 = -1, y1 = -1;
+  for (int y = 0; y < in.height; ++y) {
+    for (int x = 0; x < in.width; ++x) {
+      if (in.coverage[static_cast<size_t>(y) * in.width + x] < 0.5f) continue;
+      x0 = std::min(x0, x);
+      y0 = std::min(y0, y);
+      x1 = std::max(x1, x);
+      y1 = std::max(y1, y);
+    }
+  }
+  if (x1 < 0) return;
+  const int margin = static_cast<int>(std::ceil(options_.max_shift_px)) + 2;
+  Frame f;
+  f.index = index;
+  f.left = std::max(0, x0 - margin);
+  f.top = std::max(0, y0 - margin);
+  f.width = std::min(in.width, x1 + margin + 1) - f.left;
+  f.height = std::min(in.height, y1 + margin + 1) - f.top;
+  const size_t n = static_cast<size_t>(f.width) * f.height;
+  f.cues.resize(n * kWeights);
+  f.uv.resize(n * 2);
+  f.coverage.resize(n);
+  f.target.resize(n * 3);
+  f.matte.resize(n);
+  for (int y = 0; y < f.height; ++y) {
+    for (int x = 0; x < f.width; ++x) {
+      const size_t o = static_cast<size_t>(y) * f.width + x;
+      const size_t i = static_cast<size_t>(y + f.top) * in.width + (x + f.left);
+      std::copy(in.cues + i * kWeights, in.cues + (i + 1) * kWeights, &f.cues[o * kWeights]);
+      f.uv[2 * o] = in.uv[2 * i];
+      f.uv[2 * o + 1] = in.uv[2 * i + 1];
+      f.coverage[o] = in.coverage[i];
+      for (int c = 0; c < 3; ++c) f.target[3 * o + c] = in.target_rgb[3 * i + c];
+      f.matte[o] = in.matte[i];
+      if (f.coverage[o] >= 0.5f && f.matte[o] >= 0.5f) ++frame_pixels_;
+    }
+  }
+  frames_.push_back(std::move(f));
+  // Frame budget: beyond twice max_pixels, every other frame is dropped.
+  if (frame_pixels_ >= 2 * options_.max_pixels && frames_.size() > 1) {
+    size_t kept = 0;
+    frame_pixels_ = 0;
+    for (size_t i = 0; i < frames_.size(); i += 2) {
+      for (size_t o = 0; o < frames_[i].coverage.size(); ++o) {
+        frame_pixels_ += frames_[i].coverage[o] >= 0.5f && frames_[i].matte[o] >= 0.5f;
+      }
+      frames_[kept++] = std::move(frames_[i]);
+    }
+    frames_.resize(kept);
+  }
+}
+
+namespace {
+
+// Bilinear read of channel c of a row-major w x h image with `channels`
+// channels at (x, y), clamped at the border.
+float ReadBilinear(const std::vector<float>& image, int w, int h, int channels, int c, double x, double y) {
+  x = std::clamp(x, 0.0, w - 1.0);
+  y = std::clamp(y, 0.0, h - 1.0);
+  const int xa = static_cast<int>(x), ya = static_cast<int>(y);
+  const int xb = std::min(xa + 1, w - 1), yb = std::min(ya + 1, h - 1);
+  const double fx = x - xa, fy = y - ya;
+  auto at = [&](int xi, int yi) { return image[(static_cast<size_t>(yi) * w + xi) * channels + c]; };
+  return static_cast<float>((1 - fy) * ((1 - fx) * at(xa, ya) + fx * at(xb, ya)) +
+                            fy * ((1 - fx) * at(xa, yb) + fx * at(xb, yb)));
+}
+
+}  // namespace
+
+void CueTextureFit::BuildSamples() {
+  samples_ = loose_;
+  // Frame pixels beyond max_pixels are strided evenly.
+  const int64_t stride = std::max<int64_t>(1, (frame_pixels_ + options_.max_pixels - 1) / options_.max_pixels);
+  int64_t index = 0;
+  saturated_frames_ = 0;
+  for (const Frame& f : frames_) {
+    for (int y = 0; y < f.height; ++y) {
+      for (int x = 0; x < f.width; ++x) {
+        const size_t o = static_cast<size_t>(y) * f.width + x;
+        if (f.coverage[o] < 0.5f) continue;
+        const double xs = x + f.shift[0], ys = y + f.shift[1];
+        if (ReadBilinear(f.matte, f.width, f.height, 1, 0, xs, ys) < 0.5f) continue;
+        if (index++ % stride != 0) continue;
+        Sample s;
+        s.u = f.uv[2 * o];
+        s.v = f.uv[2 * o + 1];
+        std::copy(&f.cues[o * kWeights], &f.cues[(o + 1) * kWeights], s.cues.begin());
+        for (int c = 0; c < 3; ++c) s.target[c] = ReadBilinear(f.target, f.width, f.height, 3, c, xs, ys);
+        if (options_.saturation_level > 0 &&
+            std::max({s.target[0], s.target[1], s.target[2]}) >= options_.saturation_level) {
+          ++saturated_frames_;
+          continue;
+        }
+        samples_.push_back(s);
+      }
+    }
+  }
+}
+
+void CueTextureFit::AlignFrames() {
+  tbb::parallel_for(size_t{0}, frames_.size(), [&](size_t i) {
+    Frame& f = frames_[i];
+    for (int iteration = 0; iteration < 3; ++iteration) {
+      Eigen::Matrix2d jtj = Eigen::Matrix2d::Zero();
+      Eigen::Vector2d jtr = Eigen::Vector2d::Zero();
+      for (int y = 1; y + 1 < f.height; ++y) {
+        for (int x = 1; x + 1 < f.width; ++x) {
+          const size_t o = static_cast<size_t>(y) * f.width + x;
+          if (f.coverage[o] < 0.99f) continue;
+          const double xs = x + f.shift[0], ys = y + f.shift[1];
+          if (ReadBilinear(f.matte, f.width, f.height, 1, 0, xs, ys) < 0.99f) continue;
+          const std::array<float, kWeights> w = WeightsAt(f.uv[2 * o], f.uv[2 * o + 1]);
+          for (int c = 0; c < 3; ++c) {
+            const double t = ReadBilinear(f.target, f.width, f.height, 3, c, xs, ys);
+            if (options_.saturation_level > 0 && t >= options_.saturation_level) continue;
+            double predicted = 0;
+            for (int k = 0; k < kBases; ++k) predicted += w[3 * k + c] * f.cues[o * kWeights + 3 * k + c];
+            const Eigen::Vector2d gradient(
+                0.5 * (ReadBilinear(f.target, f.width, f.height, 3, c, xs + 1, ys) -
+                       ReadBilinear(f.target, f.width, f.height, 3, c, xs - 1, ys)),
+                0.5 * (ReadBilinear(f.target, f.width, f.height, 3, c, xs, ys + 1) -
+                       ReadBilinear(f.target, f.width, f.height, 3, c, xs, ys - 1)));
+            jtj += gradient * gradient.transpose();
+            jtr += gradient * (t - predicted);
+          }
+        }
+      }
+      if (jtj.trace() <= 1e-9) break;  // no texture to align on
+      jtj.diagonal().array() += 1e-3 * jtj.trace();
+      const Eigen::Vector2d step = -jtj.ldlt().solve(jtr);
+      for (int a = 0; a < 2; ++a) {
+        f.shift[a] = std::clamp(f.shift[a] + step[a], -options_.max_shift_px, options_.max_shift_px);
+      }
+      if (step.norm() < 0.01) break;
+    }
+  });
 }
 
 int CueTextureFit::SolveChannel(int c, int res, const Vec5& global, std::vector<double>* z_out) const {
@@ -234,12 +394,45 @@ int CueTextureFit::SolveChannel(int c, int res, const Vec5& global, std::vector<
   return iterations;
 }
 
+int CueTextureFit::SolveWeights(bool from_scratch) {
+  std::vector<int> levels;
+  for (int level = from_scratch ? options_.coarse_levels : 0; level >= 0; --level) {
+    const int res = resolution_ >> level;
+    if (res >= 4 || level == 0) levels.push_back(std::max(res, 1));
+  }
+  std::array<int, 3> iterations{};
+  tbb::parallel_for(0, 3, [&](int c) {
+    int previous = from_scratch ? 0 : resolution_;
+    for (int res : levels) {
+      if (previous == 0) {
+        z_[c].resize(static_cast<size_t>(res) * res * kBases);
+        for (size_t t = 0; t < z_[c].size() / kBases; ++t) {
+          for (int k = 0; k < kBases; ++k) z_[c][t * kBases + k] = global_[c][k];
+        }
+      } else if (previous != res) {
+        z_[c] = Prolong(z_[c], previous, res);
+      }
+      iterations[c] += SolveChannel(c, res, global_[c], &z_[c]);
+      previous = res;
+    }
+  });
+  const size_t texels = static_cast<size_t>(resolution_) * resolution_;
+  weights_.assign(texels * kWeights, 0.0f);
+  for (size_t t = 0; t < texels; ++t) {
+    for (int k = 0; k < kBases; ++k) {
+      for (int c = 0; c < 3; ++c) {
+        weights_[t * kWeights + 3 * k + c] = static_cast<float>(z_[c][t * kBases + k] / cue_scale_[3 * k + c]);
+      }
+    }
+  }
+  solved_ = true;
+  return iterations[0] + iterations[1] + iterations[2];
+}
+
 CueFitStats CueTextureFit::Solve() {
+  BuildSamples();
   RELIT_REQUIRE(!samples_.empty(), "cue fit: no unsaturated foreground pixel in the training frames (",
-                saturated_, " left out at the saturation level ", options_.saturation_level, ")");
-  CueFitStats stats;
-  stats.pixels = static_cast<int64_t>(samples_.size());
-  stats.saturated_pixels = saturated_;
+                saturated_ + saturated_frames_, " left out at the saturation level ", options_.saturation_level, ")");
   // Unit-RMS cues, so that smoothness and ridge count in pixels' worth.
   std::array<double, kWeights> sum_sq{};
   for (const Sample& s : samples_) {
@@ -249,7 +442,6 @@ CueFitStats CueTextureFit::Solve() {
     cue_scale_[j] = static_cast<float>(std::max(std::sqrt(sum_sq[j] / samples_.size()), 1e-12));
   }
   // The global fit per channel: the ridge's target and every texel's start.
-  std::array<Vec5, 3> global;
   for (int c = 0; c < 3; ++c) {
     Mat5 a = Mat5::Zero();
     Vec5 b = Vec5::Zero();
@@ -260,44 +452,20 @@ CueFitStats CueTextureFit::Solve() {
       b += s.target[c] * q;
     }
     a.diagonal().array() += 1e-9 * (a.trace() / kBases + 1e-30);
-    global[c] = a.ldlt().solve(b);
+    global_[c] = a.ldlt().solve(b);
   }
-
-  std::vector<int> levels;
-  for (int level = options_.coarse_levels; level >= 0; --level) {
-    const int res = resolution_ >> level;
-    if (res >= 4 || level == 0) levels.push_back(std::max(res, 1));
+  CueFitStats stats;
+  stats.iterations = SolveWeights(/*from_scratch=*/true);
+  const int rounds = frames_.empty() ? 0 : options_.align_rounds;
+  for (int round = 0; round < rounds; ++round) {
+    AlignFrames();
+    BuildSamples();
+    stats.iterations += SolveWeights(/*from_scratch=*/false);
   }
-  std::array<std::vector<double>, 3> z;
-  std::array<int, 3> iterations{};
-  tbb::parallel_for(0, 3, [&](int c) {
-    int previous = 0;
-    for (int res : levels) {
-      if (previous == 0) {
-        z[c].resize(static_cast<size_t>(res) * res * kBases);
-        for (size_t t = 0; t < z[c].size() / kBases; ++t) {
-          for (int k = 0; k < kBases; ++k) z[c][t * kBases + k] = global[c][k];
-        }
-      } else {
-        z[c] = Prolong(z[c], previous, res);
-      }
-      iterations[c] += SolveChannel(c, res, global[c], &z[c]);
-      previous = res;
-    }
-  });
-  stats.iterations = iterations[0] + iterations[1] + iterations[2];
+  stats.pixels = static_cast<int64_t>(samples_.size());
+  stats.saturated_pixels = saturated_ + saturated_frames_;
 
   const size_t texels = static_cast<size_t>(resolution_) * resolution_;
-  weights_.assign(texels * kWeights, 0.0f);
-  for (size_t t = 0; t < texels; ++t) {
-    for (int k = 0; k < kBases; ++k) {
-      for (int c = 0; c < 3; ++c) {
-        weights_[t * kWeights + 3 * k + c] = static_cast<float>(z[c][t * kBases + k] / cue_scale_[3 * k + c]);
-      }
-    }
-  }
-  solved_ = true;
-
   std::vector<char> seen(texels, 0);
   double sq = 0;
   for (const Sample& s : samples_) {
@@ -312,6 +480,13 @@ CueFitStats CueTextureFit::Solve() {
   }
   stats.texels_seen = std::count(seen.begin(), seen.end(), 1);
   stats.rms_residual = std::sqrt(sq / (3.0 * samples_.size()));
+  if (!frames_.empty()) {
+    std::vector<double> shifts;
+    for (const Frame& f : frames_) shifts.push_back(std::hypot(f.shift[0], f.shift[1]));
+    std::sort(shifts.begin(), shifts.end());
+    stats.median_shift_px = shifts[shifts.size() / 2];
+    stats.max_shift_px = shifts.back();
+  }
   return stats;
 }
 

@@ -44,12 +44,23 @@ struct CueFitOptions {
   double tolerance = 1e-5;       // relative residual that ends a level early
   int coarse_levels = 3;         // levels below the final resolution (each half the size)
   int64_t max_pixels = 4000000;  // pixels kept (evenly strided) when the frames hold more
-  // Training pixels with any channel at or above this linear level are left
-  // out: a clipped pixel only says the radiance was at least the white level
-  // (SDR video: 1), and fitting it as equal pulls the weights of bright
-  // surfaces down. 0 = keep every pixel (HDR captures without clipping).
+  // > 0: training pixels with any channel at or above this linear level are
+  // left out: a clipped pixel only says the radiance was at least the white
+  // level (SDR video: 1), and fitting it as equal pulls the weights of bright
+  // surfaces down. 0 = keep every pixel. Off by default: the demo gained
+  // only 0.16 dB with 0.99, and renders that are not clipped (the test
+  // workspaces) lose their brightest pixels.
   double saturation_level = kDefaultSaturationLevel;
-  static constexpr double kDefaultSaturationLevel = 0.99;
+  static constexpr double kDefaultSaturationLevel = 0.0;
+  // Frames added whole (AddFrame) are aligned to the fit: after each solve,
+  // every frame's image (and matte) is shifted by the sub-pixel translation
+  // that best matches the fit's prediction (Gauss-Newton on the image
+  // gradient), then the fit is solved again. A pose or lens error of a
+  // pixel moves the photo's texture off the proxy's atlas coordinates,
+  // which on a high-contrast texture costs more than any model error.
+  // Off by default: on the demo it cost 0.3-0.4 dB (docs/relight.md).
+  int align_rounds = 0;          // 0 = no alignment
+  double max_shift_px = 3.0;     // largest shift a frame may take
 
   void Read(OptionsReader& reader);
   void Check() const;
@@ -62,6 +73,8 @@ struct CueFitStats {
   int64_t texels_seen = 0;  // texels of the final level with pixel weight
   int iterations = 0;       // conjugate-gradient iterations, all levels and channels
   double rms_residual = 0;  // training pixels, linear, all channels
+  double median_shift_px = 0;  // frames' alignment shifts (0 without AddFrame or align_rounds)
+  double max_shift_px = 0;
 };
 
 class CueTextureFit {
@@ -77,7 +90,19 @@ class CueTextureFit {
   void AddPixel(const float* cues, float u, float v, const float* target_rgb);
   // The foreground pixels (matte >= 0.5, coverage >= 0.5) of a cue frame
   // (channels as cue_frames.h, default format) with its target and matte.
+  // The frame is kept (cropped to the proxy's box) for the alignment.
   void AddFrame(const Image& cue_frame, const Image& target_rgb, const Image& matte);
+  // The same from row-major pixel arrays: cues 15, uv 2, coverage 1,
+  // target RGB 3 and matte 1 floats per pixel.
+  struct FramePixels {
+    int width = 0, height = 0;
+    const float* cues = nullptr;
+    const float* uv = nullptr;
+    const float* coverage = nullptr;
+    const float* target_rgb = nullptr;
+    const float* matte = nullptr;
+  };
+  void AddFrame(const FramePixels& frame);
   CueFitStats Solve();
 
   // After Solve(): weights of texel row y (row 0 at v = 1), column x.
@@ -91,8 +116,16 @@ class CueTextureFit {
   // Premultiplied linear RGBA for a cue frame; alpha = proxy coverage.
   Image Predict(const Image& cue_frame) const;
 
+  // After Solve(): the translation (pixels) by which the i-th frame added
+  // (AddFrame order, from 0) was aligned: its target pixel (x, y) is read at
+  // (x + dx, y + dy). (0, 0) for a frame without coverage or dropped by the
+  // frame budget.
+  std::array<double, 2> FrameShift(int i) const;
+
   int resolution() const { return resolution_; }
-  int64_t pixels() const { return static_cast<int64_t>(samples_.size()); }
+  // Foreground pixels held (loose pixels kept by the budget plus the frames'
+  // foreground), before saturated ones are left out.
+  int64_t pixels() const { return static_cast<int64_t>(loose_.size()) + frame_pixels_; }
   int64_t saturated_pixels() const { return saturated_; }
 
  private:
@@ -101,6 +134,20 @@ class CueTextureFit {
     std::array<float, kWeights> cues;
     std::array<float, 3> target;
   };
+  // A frame kept for alignment: its crop around the proxy's coverage.
+  struct Frame {
+    int index = 0;  // AddFrame order
+    int left = 0, top = 0, width = 0, height = 0;
+    std::vector<float> cues, uv, coverage, target, matte;  // crop, row-major
+    std::array<double, 2> shift{0, 0};
+  };
+  // samples_ = the loose pixels + every frame's foreground read at its shift.
+  void BuildSamples();
+  // Solves all channels: coarse to fine from the global fit (first call)
+  // or at the final level from the current weights.
+  int SolveWeights(bool from_scratch);
+  // Gauss-Newton update of each frame's shift against the current fit.
+  void AlignFrames();
   // Conjugate gradients for colour channel c at `resolution`, from (and
   // into) *z: [texel * 5 + k], weights on unit-RMS cues. Returns iterations.
   int SolveChannel(int c, int resolution, const Eigen::Matrix<double, kBases, 1>& global,
@@ -108,10 +155,17 @@ class CueTextureFit {
 
   int resolution_;
   CueFitOptions options_;
-  std::vector<Sample> samples_;
+  std::vector<Sample> samples_;  // what the solver fits
+  std::vector<Sample> loose_;    // from AddPixel
+  std::vector<Frame> frames_;    // from AddFrame
+  int64_t frame_pixels_ = 0;     // foreground pixels in frames_
+  int frames_added_ = 0;
+  std::array<Eigen::Matrix<double, kBases, 1>, 3> global_;
+  std::array<std::vector<double>, 3> z_;  // per channel, [texel * 5 + k], on unit-RMS cues
   int64_t offered_ = 0;  // pixels offered to AddPixel (samples_ may keep fewer)
   int64_t stride_ = 1;   // samples_ holds every stride-th pixel offered
-  int64_t saturated_ = 0;  // pixels left out at the saturation level
+  int64_t saturated_ = 0;  // loose pixels left out at the saturation level
+  int64_t saturated_frames_ = 0;  // frame pixels left out at the saturation level (last BuildSamples)
   std::array<float, kWeights> cue_scale_{};  // RMS of each cue channel
   std::vector<float> weights_;  // [texel][k * 3 + c], unscaled
   bool solved_ = false;

@@ -40,6 +40,7 @@ Pixel RandomPixel(std::mt19937& rng, float u_max = 1.0f) {
 TEST(CueTextureFitTest, RecoversASmoothLinearCueModel) {
   CueFitOptions options;
   options.iterations_per_level = 200;
+  options.saturation_level = 0;  // targets above 1 here are not clipped
   CueTextureFit fit(32, options);
   std::mt19937 rng(3);
   for (int i = 0; i < 40000; ++i) {
@@ -68,7 +69,9 @@ TEST(CueTextureFitTest, RecoversASmoothLinearCueModel) {
 }
 
 TEST(CueTextureFitTest, TexelsWithoutPixelsContinueTheirNeighbours) {
-  CueTextureFit fit(16, CueFitOptions{});
+  CueFitOptions options;
+  options.saturation_level = 0;
+  CueTextureFit fit(16, options);
   std::mt19937 rng(5);
   for (int i = 0; i < 20000; ++i) {
     const Pixel p = RandomPixel(rng, 0.5f);  // only the left half of the atlas is seen
@@ -86,6 +89,7 @@ TEST(CueTextureFitTest, TexelsWithoutPixelsContinueTheirNeighbours) {
 TEST(CueTextureFitTest, KeepsAnEvenSubsetAboveThePixelBudget) {
   CueFitOptions options;
   options.max_pixels = 1000;
+  options.saturation_level = 0;
   CueTextureFit fit(8, options);
   std::mt19937 rng(7);
   for (int i = 0; i < 5000; ++i) {
@@ -95,6 +99,77 @@ TEST(CueTextureFitTest, KeepsAnEvenSubsetAboveThePixelBudget) {
   EXPECT_GE(fit.pixels(), 1000);
   EXPECT_LT(fit.pixels(), 2000);
   EXPECT_LT(fit.Solve().rms_residual, 0.05);
+}
+
+// Frames whose photos are displaced against their cue frames by known
+// sub-pixel shifts (a pose error): the alignment finds the shifts (up to
+// their common mean, which no data can tell) and the fit gets sharper.
+TEST(CueTextureFitTest, AlignmentRecoversEachFramesShift) {
+  constexpr int kSize = 48;
+  const std::vector<std::array<double, 2>> truth = {{0.0, 0.0}, {0.7, -0.4}, {-0.5, 0.9}, {1.2, 0.3}, {-0.8, -0.9}};
+  auto albedo = [](double u, double v) {
+    return 0.5 + 0.4 * std::sin(2 * M_PI * 2.5 * u) * std::sin(2 * M_PI * 2.0 * v);
+  };
+  auto fit_with = [&](int rounds, std::vector<std::array<double, 2>>* shifts) {
+    CueFitOptions options;
+    options.align_rounds = rounds;
+    options.smoothness_diffuse = 0.01;
+    CueTextureFit fit(32, options);
+    for (size_t i = 0; i < truth.size(); ++i) {
+      const size_t n = kSize * kSize;
+      std::vector<float> cues(n * 15, 0.0f), uv(n * 2), coverage(n), target(n * 3), matte(n, 1.0f);
+      // Shading that differs per frame; the photo is the model moved by truth[i].
+      auto shading = [&](double x, double y) { return 0.6 + 0.4 * std::cos(0.05 * (i + 1) * x + 0.03 * y); };
+      for (int y = 0; y < kSize; ++y) {
+        for (int x = 0; x < kSize; ++x) {
+          const size_t o = static_cast<size_t>(y) * kSize + x;
+          const double u = (x + 0.5) / kSize, v = 1.0 - (y + 0.5) / kSize;
+          uv[2 * o] = static_cast<float>(u);
+          uv[2 * o + 1] = static_cast<float>(v);
+          coverage[o] = std::hypot(x - 23.5, y - 23.5) < 20 ? 1.0f : 0.0f;
+          for (int c = 0; c < 3; ++c) cues[o * 15 + c] = static_cast<float>(shading(x, y));
+          const double xs = x - truth[i][0], ys = y - truth[i][1];
+          const double value = albedo((xs + 0.5) / kSize, 1.0 - (ys + 0.5) / kSize) * shading(xs, ys);
+          for (int c = 0; c < 3; ++c) target[3 * o + c] = static_cast<float>(value);
+        }
+      }
+      fit.AddFrame({kSize, kSize, cues.data(), uv.data(), coverage.data(), target.data(), matte.data()});
+    }
+    const CueFitStats stats = fit.Solve();
+    shifts->clear();
+    for (size_t i = 0; i < truth.size(); ++i) shifts->push_back(fit.FrameShift(static_cast<int>(i)));
+    return stats;
+  };
+  std::vector<std::array<double, 2>> found, none;
+  const CueFitStats aligned = fit_with(3, &found);
+  const CueFitStats unaligned = fit_with(0, &none);
+  std::printf("rms residual: aligned %.4f, unaligned %.4f; median shift %.2f px\n", aligned.rms_residual,
+              unaligned.rms_residual, aligned.median_shift_px);
+  std::array<double, 2> mean_error{0, 0};
+  for (size_t i = 0; i < truth.size(); ++i) {
+    for (int a = 0; a < 2; ++a) mean_error[a] += (found[i][a] - truth[i][a]) / truth.size();
+  }
+  for (size_t i = 0; i < truth.size(); ++i) {
+    for (int a = 0; a < 2; ++a) {
+      EXPECT_NEAR(found[i][a] - mean_error[a], truth[i][a], 0.15) << "frame " << i << " axis " << a;
+      EXPECT_EQ(none[i][a], 0.0);
+    }
+  }
+  EXPECT_LT(aligned.rms_residual, 0.5 * unaligned.rms_residual);
+}
+
+// A clipped pixel only bounds the radiance from below: left out of the fit.
+TEST(CueTextureFitTest, LeavesOutSaturatedPixels) {
+  CueFitOptions options;
+  options.saturation_level = 0.99;
+  CueTextureFit fit(4, options);
+  const float cues[15] = {1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+  const float dark[3] = {0.5f, 0.5f, 0.5f}, clipped[3] = {1.0f, 0.7f, 0.7f};
+  for (int i = 0; i < 100; ++i) fit.AddPixel(cues, 0.5f, 0.5f, i % 2 ? dark : clipped);
+  EXPECT_EQ(fit.saturated_pixels(), 50);
+  const CueFitStats stats = fit.Solve();
+  EXPECT_EQ(stats.pixels, 50);
+  EXPECT_NEAR(fit.WeightsAt(0.5f, 0.5f)[0], 0.5, 0.01);  // the unclipped pixels' albedo
 }
 
 TEST(CueTextureFitTest, RefusesBadOptionsAndEmptyFits) {

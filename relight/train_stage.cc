@@ -125,6 +125,8 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
     if (model_options.cue_fit == "smooth") {
       fit["iterations"] = start.iterations;
       fit["saturated_pixels"] = start.saturated_pixels;
+      fit["median_shift_px"] = start.median_shift_px;
+      fit["max_shift_px"] = start.max_shift_px;
       fit["rms_residual"] = start.rms_residual;
     } else {
       fit["ridge"] = CuesOnlyBaseline::kDefaultRidge;

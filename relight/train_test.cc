@@ -298,7 +298,7 @@ TEST(ResidualModelTest, SmoothWarmStartReproducesASmoothLinearCueModel) {
 // From the warm start, training the corrections lowers the loss on the
 // nonlinear (power 0.8) tiny problem, which no linear cue model fits.
 TEST(ResidualModelTest, CorrectionsImproveOnTheCueRegression) {
-  const std::vector<Batch> frames = Frames(4, 32, 21);
+  std::vector<Batch> frames = Frames(4, 32, 21);
   ModelOptions model_options = testing::TinyModelOptions();
   model_options.max_radiance = MaxRadiance(frames);
   TrainOptions train_options;

@@ -36,7 +36,25 @@ void ForEachForegroundPixel(const std::vector<Batch>& frames, AddPixel add) {
 
 }  // namespace
 
-WarmStartResult WarmStartCueRegression(DnlModel& model, const std::vector<Batch>& frames, const CueFitOptions& fit,
+// Reads every target pixel (x, y) of frame b at (x + dx, y + dy), bilinear,
+// as the smooth fit's alignment did (cue_texture_fit.h).
+static void ShiftTargets(Batch& frame, int64_t b, double dx, double dy) {
+  if (dx == 0 && dy == 0) return;
+  namespace F = torch::nn::functional;
+  const int64_t h = frame.height(), w = frame.width();
+  const auto xs = (torch::arange(w, torch::kFloat) + dx) * (2.0 / std::max<int64_t>(w - 1, 1)) - 1.0;
+  const auto ys = (torch::arange(h, torch::kFloat) + dy) * (2.0 / std::max<int64_t>(h - 1, 1)) - 1.0;
+  const auto grid = torch::stack({xs.view({1, w}).expand({h, w}), ys.view({h, 1}).expand({h, w})}, 2).unsqueeze(0);
+  const auto options = F::GridSampleFuncOptions().mode(torch::kBilinear).padding_mode(torch::kBorder).align_corners(true);
+  auto shift = [&](torch::Tensor& t) {
+    const auto moved = F::grid_sample(t.slice(0, b, b + 1).to(torch::kFloat), grid.to(t.device()), options);
+    t.slice(0, b, b + 1).copy_(moved.to(t.scalar_type()));
+  };
+  shift(frame.target_rgb);
+  shift(frame.target_matte);
+}
+
+WarmStartResult WarmStartCueRegression(DnlModel& model, std::vector<Batch>& frames, const CueFitOptions& fit,
                                        double per_texel_ridge) {
   const ModelOptions& options = model->options();
   RELIT_REQUIRE(options.residual(), "warm start: only the residual model variant has a cue regression");
@@ -48,10 +66,30 @@ WarmStartResult WarmStartCueRegression(DnlModel& model, const std::vector<Batch>
   auto w = weights.accessor<float, 3>();
   if (options.cue_fit == "smooth") {
     CueTextureFit smooth(resolution, fit);
-    ForEachForegroundPixel(frames, [&](const float* cues, float u, float v, const float* rgb) {
-      smooth.AddPixel(cues, u, v, rgb);
-    });
+    for (const Batch& frame : frames) {
+      RELIT_REQUIRE(frame.has_targets() && frame.cues.size(1) == kCues, "warm start: frames need targets and 5 cues");
+      for (int64_t b = 0; b < frame.batch_size(); ++b) {
+        const auto cues = frame.cues[b].permute({1, 2, 0}).to(torch::kCPU, torch::kFloat).contiguous();
+        const auto uv = frame.uv[b].to(torch::kCPU, torch::kFloat).contiguous();
+        const auto coverage = frame.coverage[b].to(torch::kCPU, torch::kFloat).contiguous();
+        const auto target = frame.target_rgb[b].permute({1, 2, 0}).to(torch::kCPU, torch::kFloat).contiguous();
+        const auto matte = frame.target_matte[b].to(torch::kCPU, torch::kFloat).contiguous();
+        smooth.AddFrame({static_cast<int>(frame.width()), static_cast<int>(frame.height()), cues.data_ptr<float>(),
+                         uv.data_ptr<float>(), coverage.data_ptr<float>(), target.data_ptr<float>(),
+                         matte.data_ptr<float>()});
+      }
+    }
     const CueFitStats stats = smooth.Solve();
+    // The networks train on the aligned targets too.
+    int index = 0;
+    for (Batch& frame : frames) {
+      for (int64_t b = 0; b < frame.batch_size(); ++b) {
+        const std::array<double, 2> shift = smooth.FrameShift(index++);
+        ShiftTargets(frame, b, shift[0], shift[1]);
+      }
+    }
+    result.median_shift_px = stats.median_shift_px;
+    result.max_shift_px = stats.max_shift_px;
     result.pixels = stats.pixels;
     result.saturated_pixels = stats.saturated_pixels;
     result.texels_seen = stats.texels_seen;

@@ -20,6 +20,8 @@ struct WarmStartResult {
   int64_t texels = 0;          // all texels of level 0
   int iterations = 0;          // smooth fit: conjugate-gradient iterations
   double rms_residual = 0;     // smooth fit: training pixels, linear
+  double median_shift_px = 0;  // smooth fit: the frames' alignment shifts
+  double max_shift_px = 0;
 };
 
 // Fits on every pixel with matte >= 0.5 and proxy coverage >= 0.5 of
@@ -27,8 +29,10 @@ struct WarmStartResult {
 // `model`'s texture: the smooth fit (cue_texture_fit.h, `fit`) or, with
 // model.cue_fit per_texel, the cues-only baseline's per-texel fit whose
 // ridge pulls texels seen by few pixels towards the global fit.
-// Requires the residual variant.
-WarmStartResult WarmStartCueRegression(DnlModel& model, const std::vector<Batch>& frames, const CueFitOptions& fit,
+// The smooth fit aligns each frame to the fit (CueFitOptions::align_rounds)
+// and shifts the frames' targets and mattes the same way, so the networks
+// train on the aligned images. Requires the residual variant.
+WarmStartResult WarmStartCueRegression(DnlModel& model, std::vector<Batch>& frames, const CueFitOptions& fit,
                                        double per_texel_ridge = CuesOnlyBaseline::kDefaultRidge);
 
 }  // namespace relit::relight
