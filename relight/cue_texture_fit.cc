@@ -503,6 +503,13 @@ std::array<float, CueTextureFit::kWeights> CueTextureFit::WeightsAt(float u, flo
 
 Image CueTextureFit::Predict(const Image& cue_frame) const {
   RELIT_REQUIRE(solved_, "cue fit: Solve() before Predict()");
+  return PredictFromCueWeights(cue_frame, [&](float u, float v) { return WeightsAt(u, v); });
+}
+
+Image PredictFromCueWeights(const Image& cue_frame,
+                            const std::function<std::array<float, 15>(float u, float v)>& weights_at) {
+  RELIT_REQUIRE(cue_frame.channels() == static_cast<int>(CueFrameChannels().size()), "cue frame has ",
+                cue_frame.channels(), " channels, expected ", CueFrameChannels().size());
   Image out(cue_frame.width(), cue_frame.height(), 4);
   for (int y = 0; y < cue_frame.height(); ++y) {
     for (int x = 0; x < cue_frame.width(); ++x) {
@@ -510,11 +517,11 @@ Image CueTextureFit::Predict(const Image& cue_frame) const {
       float* o = out.pixel(x, y);
       o[3] = p[21];
       if (p[21] <= 0) continue;
-      const std::array<float, kWeights> w = WeightsAt(p[15], p[16]);
+      const std::array<float, 15> w = weights_at(p[15], p[16]);
       for (int c = 0; c < 3; ++c) {
         float sum = 0;
-        for (int k = 0; k < kBases; ++k) sum += w[3 * k + c] * p[3 * k + c];
-        o[c] = std::max(sum, 0.0f);  // cues are pixel averages: already premultiplied
+        for (int k = 0; k < CueTextureFit::kBases; ++k) sum += w[3 * k + c] * p[3 * k + c];
+        o[c] = std::max(sum, 0.0f);
       }
     }
   }

@@ -20,6 +20,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,14 @@ class OptionsReader;
 }
 
 namespace relit::relight {
+
+// Premultiplied linear RGBA of a cue frame (channels as cue_frames.h,
+// default format) under per-pixel cue weights: rgb_c = max(0, sum_k
+// w[k * 3 + c] cue_kc) with w = weights_at(u, v) (the cues are pixel
+// averages, so already premultiplied), alpha = the proxy's coverage. What
+// both cue regressions (this one and cues_baseline.h) predict.
+Image PredictFromCueWeights(const Image& cue_frame,
+                            const std::function<std::array<float, 15>(float u, float v)>& weights_at);
 
 struct CueFitOptions {
   // Smoothness of the Lambert weight and of the 4 GGX weights (pixels'

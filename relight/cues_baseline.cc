@@ -114,23 +114,7 @@ void CuesOnlyBaseline::Solve() {
 
 Image CuesOnlyBaseline::Predict(const Image& cue_frame) const {
   RELIT_REQUIRE(solved_, "cues-only baseline: Solve() before Predict()");
-  CheckCueFrame(cue_frame);
-  Image out(cue_frame.width(), cue_frame.height(), 4);
-  for (int y = 0; y < cue_frame.height(); ++y) {
-    for (int x = 0; x < cue_frame.width(); ++x) {
-      const float* p = cue_frame.pixel(x, y);
-      float* o = out.pixel(x, y);
-      o[3] = p[21];
-      if (p[21] <= 0) continue;
-      const auto& w = weights_[Texel(p[15], p[16])];
-      for (int c = 0; c < 3; ++c) {
-        float sum = 0;
-        for (int k = 0; k < kBases; ++k) sum += w[k * 3 + c] * p[3 * k + c];
-        o[c] = std::max(sum, 0.0f);
-      }
-    }
-  }
-  return out;
+  return PredictFromCueWeights(cue_frame, [&](float u, float v) { return weights_[Texel(u, v)]; });
 }
 
 }  // namespace relit::relight
