@@ -90,6 +90,12 @@ nlohmann::json CueFitOptions::ToJson() const {
           {"saturation_level", saturation_level}, {"align_rounds", align_rounds}, {"max_shift_px", max_shift_px}};
 }
 
+nlohmann::json CueFitStats::ToJson() const {
+  return {{"pixels", pixels},          {"saturated_pixels", saturated_pixels}, {"texels_seen", texels_seen},
+          {"iterations", iterations},  {"rms_residual", rms_residual},         {"median_shift_px", median_shift_px},
+          {"max_shift_px", max_shift_px}};
+}
+
 CueTextureFit::CueTextureFit(int resolution_px, const CueFitOptions& options)
     : resolution_(resolution_px), options_(options) {
   options_.Check();

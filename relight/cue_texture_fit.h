@@ -84,6 +84,8 @@ struct CueFitStats {
   double rms_residual = 0;  // training pixels, linear, all channels
   double median_shift_px = 0;  // frames' alignment shifts (0 without AddFrame or align_rounds)
   double max_shift_px = 0;
+
+  nlohmann::json ToJson() const;
 };
 
 class CueTextureFit {

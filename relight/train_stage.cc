@@ -120,20 +120,16 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
   if (fresh && model_options.residual()) {
     auto timer = record.Time("warm_start");
     const WarmStartResult start = WarmStartCueRegression(trainer->model(), frames, options.optimizer.cue_fit);
-    json fit = {{"cue_fit", model_options.cue_fit}, {"pixels", start.pixels}, {"texels_seen", start.texels_seen},
-                {"texels", start.texels}};
-    if (model_options.cue_fit == "smooth") {
-      fit["iterations"] = start.iterations;
-      fit["saturated_pixels"] = start.saturated_pixels;
-      fit["median_shift_px"] = start.median_shift_px;
-      fit["max_shift_px"] = start.max_shift_px;
-      fit["rms_residual"] = start.rms_residual;
-    } else {
-      fit["ridge"] = CuesOnlyBaseline::kDefaultRidge;
-    }
+    json fit = model_options.cue_fit == "smooth"
+                   ? start.stats.ToJson()
+                   : json{{"pixels", start.stats.pixels},
+                          {"texels_seen", start.stats.texels_seen},
+                          {"ridge", CuesOnlyBaseline::kDefaultRidge}};
+    fit["cue_fit"] = model_options.cue_fit;
+    fit["texels"] = start.texels;
     record.Set("warm_start", fit);
     spdlog::info("train: partition {}: {} cue regression fitted on {} pixels ({} of {} texels seen)", partition,
-                 model_options.cue_fit, start.pixels, start.texels_seen, start.texels);
+                 model_options.cue_fit, start.stats.pixels, start.stats.texels_seen, start.texels);
   }
 
   FrameOrder order(static_cast<int>(frames.size()), options.optimizer.seed);

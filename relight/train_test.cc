@@ -247,9 +247,9 @@ TEST(ResidualModelTest, WarmStartReproducesALinearCueModelAndTheCoverage) {
   DnlModel model(model_options);
   // A weak ridge: the synthetic blobs make the 5 cues nearly collinear.
   const WarmStartResult fit = WarmStartCueRegression(model, frames, CueFitOptions{}, 1e-4);
-  std::printf("warm start: %lld pixels, %lld of %lld texels seen\n", static_cast<long long>(fit.pixels),
-              static_cast<long long>(fit.texels_seen), static_cast<long long>(fit.texels));
-  EXPECT_GT(fit.pixels, 12 * 500);
+  std::printf("warm start: %lld pixels, %lld of %lld texels seen\n", static_cast<long long>(fit.stats.pixels),
+              static_cast<long long>(fit.stats.texels_seen), static_cast<long long>(fit.texels));
+  EXPECT_GT(fit.stats.pixels, 12 * 500);
   for (const Batch& f : frames) {
     const auto rgba = model->Render(f);
     const auto inside = f.coverage > 0.5;
@@ -260,7 +260,7 @@ TEST(ResidualModelTest, WarmStartReproducesALinearCueModelAndTheCoverage) {
   }
   // Texels seen by many pixels hold the true weights.
   const auto seen = (model->regression() - weights).abs().amax(1).flatten();
-  EXPECT_LT(std::get<0>(seen.sort()).slice(0, 0, fit.texels_seen / 2).max().item<double>(), 0.02);
+  EXPECT_LT(std::get<0>(seen.sort()).slice(0, 0, fit.stats.texels_seen / 2).max().item<double>(), 0.02);
 }
 
 // The default (smooth) warm start on frames whose targets are a smooth,
@@ -284,8 +284,8 @@ TEST(ResidualModelTest, SmoothWarmStartReproducesASmoothLinearCueModel) {
   CueFitOptions fit_options;
   fit_options.iterations_per_level = 300;
   const WarmStartResult fit = WarmStartCueRegression(model, frames, fit_options);
-  EXPECT_GT(fit.pixels, 12 * 500);
-  EXPECT_GT(fit.iterations, 0);
+  EXPECT_GT(fit.stats.pixels, 12 * 500);
+  EXPECT_GT(fit.stats.iterations, 0);
   for (const Batch& f : frames) {
     const auto rgba = model->Render(f);
     const auto inside = f.coverage > 0.5;

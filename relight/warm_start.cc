@@ -14,7 +14,6 @@ namespace {
 template <typename AddPixel>
 void ForEachForegroundPixel(const std::vector<Batch>& frames, AddPixel add) {
   for (const Batch& frame : frames) {
-    RELIT_REQUIRE(frame.has_targets() && frame.cues.size(1) == kCues, "warm start: frames need targets and 5 cues");
     // [B, H, W, C] contiguous float views of the per-pixel tensors.
     const auto cues = frame.cues.permute({0, 2, 3, 1}).to(torch::kCPU, torch::kFloat).contiguous();
     const auto target = frame.target_rgb.permute({0, 2, 3, 1}).to(torch::kCPU, torch::kFloat).contiguous();
@@ -60,6 +59,9 @@ WarmStartResult WarmStartCueRegression(DnlModel& model, std::vector<Batch>& fram
   RELIT_REQUIRE(options.residual(), "warm start: only the residual model variant has a cue regression");
   torch::Tensor& texels = model->regression();
   const int resolution = static_cast<int>(texels.size(3));
+  for (const Batch& frame : frames) {
+    RELIT_REQUIRE(frame.has_targets() && frame.cues.size(1) == kCues, "warm start: frames need targets and 5 cues");
+  }
   WarmStartResult result;
   result.texels = static_cast<int64_t>(resolution) * resolution;
   auto weights = torch::empty({kCues, resolution, resolution}, torch::kFloat);
@@ -67,7 +69,6 @@ WarmStartResult WarmStartCueRegression(DnlModel& model, std::vector<Batch>& fram
   if (options.cue_fit == "smooth") {
     CueTextureFit smooth(resolution, fit);
     for (const Batch& frame : frames) {
-      RELIT_REQUIRE(frame.has_targets() && frame.cues.size(1) == kCues, "warm start: frames need targets and 5 cues");
       for (int64_t b = 0; b < frame.batch_size(); ++b) {
         const auto cues = frame.cues[b].permute({1, 2, 0}).to(torch::kCPU, torch::kFloat).contiguous();
         const auto uv = frame.uv[b].to(torch::kCPU, torch::kFloat).contiguous();
@@ -79,7 +80,7 @@ WarmStartResult WarmStartCueRegression(DnlModel& model, std::vector<Batch>& fram
                          matte.data_ptr<float>()});
       }
     }
-    const CueFitStats stats = smooth.Solve();
+    result.stats = smooth.Solve();
     // The networks train on the aligned targets too.
     int index = 0;
     for (Batch& frame : frames) {
@@ -88,13 +89,6 @@ WarmStartResult WarmStartCueRegression(DnlModel& model, std::vector<Batch>& fram
         ShiftTargets(frame, b, shift[0], shift[1]);
       }
     }
-    result.median_shift_px = stats.median_shift_px;
-    result.max_shift_px = stats.max_shift_px;
-    result.pixels = stats.pixels;
-    result.saturated_pixels = stats.saturated_pixels;
-    result.texels_seen = stats.texels_seen;
-    result.iterations = stats.iterations;
-    result.rms_residual = stats.rms_residual;
     for (int y = 0; y < resolution; ++y) {
       for (int x = 0; x < resolution; ++x) {
         for (int j = 0; j < kCues; ++j) w[j][y][x] = smooth.Weight(x, y, j);
@@ -105,9 +99,9 @@ WarmStartResult WarmStartCueRegression(DnlModel& model, std::vector<Batch>& fram
     ForEachForegroundPixel(frames, [&](const float* cues, float u, float v, const float* rgb) {
       per_texel.AccumulatePixel(cues, u, v, rgb);
     });
-    result.pixels = per_texel.pixels_used();
+    result.stats.pixels = per_texel.pixels_used();
     per_texel.Solve();
-    result.texels_seen = per_texel.texels_seen();
+    result.stats.texels_seen = per_texel.texels_seen();
     for (int y = 0; y < resolution; ++y) {
       for (int x = 0; x < resolution; ++x) {
         const auto& texel = per_texel.Weights(x, y);

@@ -8,20 +8,17 @@
 
 #include <vector>
 
+#include "relight/cue_texture_fit.h"
 #include "relight/cues_baseline.h"
 #include "relight/model.h"
 
 namespace relit::relight {
 
 struct WarmStartResult {
-  int64_t pixels = 0;          // foreground pixels fitted
-  int64_t saturated_pixels = 0;  // smooth fit: foreground pixels left out as clipped
-  int64_t texels_seen = 0;     // texels with at least one pixel
-  int64_t texels = 0;          // all texels of level 0
-  int iterations = 0;          // smooth fit: conjugate-gradient iterations
-  double rms_residual = 0;     // smooth fit: training pixels, linear
-  double median_shift_px = 0;  // smooth fit: the frames' alignment shifts
-  double max_shift_px = 0;
+  int64_t texels = 0;  // all texels of level 0
+  // The smooth fit's statistics; the per-texel fit fills only pixels and
+  // texels_seen.
+  CueFitStats stats;
 };
 
 // Fits on every pixel with matte >= 0.5 and proxy coverage >= 0.5 of
