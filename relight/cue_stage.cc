@@ -12,6 +12,7 @@
 #include "core/json_file.h"
 #include "core/progress.h"
 #include "core/run_record.h"
+#include "core/capture_file.h"
 #include "core/workspace.h"
 #include "relight/cue_frames.h"
 
@@ -32,6 +33,12 @@ uint64_t HashFile(const std::string& path) {
     }
   }
   return hash;
+}
+
+std::string CaptureTransfer(const std::string& workspace_root) {
+  const std::string path = CaptureFilePath(workspace_root);
+  if (!std::filesystem::exists(path)) return "";
+  return ReadCaptureFile(path).inputs.at("view").transfer_used;
 }
 
 CuesFile ReadCuesFile(const std::string& path) {

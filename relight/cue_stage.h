@@ -46,6 +46,11 @@ struct CuesFile {
   std::vector<CueFrameRecord> frames;
 };
 CuesFile ReadCuesFile(const std::string& path);
+
+// How relit-capture linearised phone V's video (capture.json
+// inputs.view.transfer_used: srgb, gamma2.2, hlg, pq); "" without a
+// capture.json (a workspace not made by relit-capture, e.g. test fixtures).
+std::string CaptureTransfer(const std::string& workspace_root);
 void WriteCuesFile(const std::string& path, const CuesFile& file);
 
 struct CueStageSummary {

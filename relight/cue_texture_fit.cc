@@ -61,6 +61,11 @@ double Dot(const std::vector<double>& a, const std::vector<double>& b) {
 
 }  // namespace
 
+double ResolveSaturationLevel(double level, const std::string& capture_transfer) {
+  if (level >= 0) return level;
+  return capture_transfer == "srgb" || capture_transfer == "gamma2.2" ? CueFitOptions::kSdrSaturationLevel : 0.0;
+}
+
 void CueFitOptions::Read(OptionsReader& reader) {
   reader.ReadRange("smoothness_diffuse", &smoothness_diffuse, 0.0, 1e6);
   reader.ReadRange("smoothness_specular", &smoothness_specular, 0.0, 1e6);
@@ -69,7 +74,8 @@ void CueFitOptions::Read(OptionsReader& reader) {
   reader.ReadRange("tolerance", &tolerance, 0.0, 1.0);
   reader.ReadRange("coarse_levels", &coarse_levels, 0, 8);
   reader.ReadRange("max_pixels", &max_pixels, int64_t{1000}, int64_t{1} << 40);
-  reader.ReadRange("saturation_level", &saturation_level, 0.0, 1e9);
+  reader.ReadRange("saturation_level", &saturation_level, kAutoSaturationLevel, 1e9);
+  reader.ReadRange("saturation_rounds", &saturation_rounds, 0, 100);
   reader.ReadRange("align_rounds", &align_rounds, 0, 20);
   reader.ReadRange("max_shift_px", &max_shift_px, 0.0, 100.0);
   reader.Finish();
@@ -77,21 +83,21 @@ void CueFitOptions::Read(OptionsReader& reader) {
 
 void CueFitOptions::Check() const {
   RELIT_REQUIRE(smoothness_diffuse >= 0 && smoothness_specular >= 0 && ridge > 0 && iterations_per_level >= 1 &&
-                    tolerance >= 0 && coarse_levels >= 0 && max_pixels >= 1000 && saturation_level >= 0 &&
-                    align_rounds >= 0 && max_shift_px >= 0,
+                    tolerance >= 0 && coarse_levels >= 0 && max_pixels >= 1000 && (saturation_level >= 0 || saturation_level == kAutoSaturationLevel) &&
+                    saturation_rounds >= 0 && align_rounds >= 0 && max_shift_px >= 0,
                 "cue_fit: smoothness >= 0, ridge > 0, iterations_per_level >= 1, coarse_levels >= 0 and "
-                "max_pixels >= 1000, saturation_level >= 0, align_rounds >= 0 and max_shift_px >= 0 required");
+                "max_pixels >= 1000, saturation_level >= 0 or -1 (auto), saturation_rounds >= 0, align_rounds >= 0 and max_shift_px >= 0 required");
 }
 
 nlohmann::json CueFitOptions::ToJson() const {
   return {{"smoothness_diffuse", smoothness_diffuse}, {"smoothness_specular", smoothness_specular},
           {"ridge", ridge},   {"iterations_per_level", iterations_per_level},
           {"tolerance", tolerance}, {"coarse_levels", coarse_levels}, {"max_pixels", max_pixels},
-          {"saturation_level", saturation_level}, {"align_rounds", align_rounds}, {"max_shift_px", max_shift_px}};
+          {"saturation_level", saturation_level}, {"saturation_rounds", saturation_rounds}, {"align_rounds", align_rounds}, {"max_shift_px", max_shift_px}};
 }
 
 nlohmann::json CueFitStats::ToJson() const {
-  return {{"pixels", pixels},          {"saturated_pixels", saturated_pixels}, {"texels_seen", texels_seen},
+  return {{"pixels", pixels},          {"saturated_pixels", saturated_pixels}, {"saturated_above", saturated_above}, {"texels_seen", texels_seen},
           {"iterations", iterations},  {"rms_residual", rms_residual},         {"median_shift_px", median_shift_px},
           {"max_shift_px", max_shift_px}};
 }
@@ -104,11 +110,6 @@ CueTextureFit::CueTextureFit(int resolution_px, const CueFitOptions& options)
 
 void CueTextureFit::AddPixel(const float* cues, float u, float v, const float* target_rgb) {
   solved_ = false;
-  if (options_.saturation_level > 0 &&
-      std::max({target_rgb[0], target_rgb[1], target_rgb[2]}) >= options_.saturation_level) {
-    ++saturated_;
-    return;
-  }
   // Streaming decimation: keep every stride-th pixel offered; when twice the
   // budget is held, drop every other one and double the stride.
   if (offered_++ % stride_ != 0) return;
@@ -117,6 +118,7 @@ void CueTextureFit::AddPixel(const float* cues, float u, float v, const float* t
   s.v = v;
   std::copy(cues, cues + kWeights, s.cues.begin());
   std::copy(target_rgb, target_rgb + 3, s.target.begin());
+  MarkClipped(&s);
   loose_.push_back(s);
   if (static_cast<int64_t>(loose_.size()) >= 2 * options_.max_pixels) {
     size_t kept = 0;
@@ -230,12 +232,17 @@ float ReadBilinear(const std::vector<float>& image, int w, int h, int channels, 
 
 }  // namespace
 
+void CueTextureFit::MarkClipped(Sample* s) const {
+  s->clipped = 0;
+  if (options_.saturation_level <= 0) return;  // off, or auto left unresolved (no capture known)
+  for (int c = 0; c < 3; ++c) s->clipped |= (s->target[c] >= options_.saturation_level ? 1 : 0) << c;
+}
+
 void CueTextureFit::BuildSamples() {
   samples_ = loose_;
   // Frame pixels beyond max_pixels are strided evenly.
   const int64_t stride = std::max<int64_t>(1, (frame_pixels_ + options_.max_pixels - 1) / options_.max_pixels);
   int64_t index = 0;
-  saturated_frames_ = 0;
   for (const Frame& f : frames_) {
     for (int y = 0; y < f.height; ++y) {
       for (int x = 0; x < f.width; ++x) {
@@ -249,11 +256,7 @@ void CueTextureFit::BuildSamples() {
         s.v = f.uv[2 * o + 1];
         std::copy(&f.cues[o * kWeights], &f.cues[(o + 1) * kWeights], s.cues.begin());
         for (int c = 0; c < 3; ++c) s.target[c] = ReadBilinear(f.target, f.width, f.height, 3, c, xs, ys);
-        if (options_.saturation_level > 0 &&
-            std::max({s.target[0], s.target[1], s.target[2]}) >= options_.saturation_level) {
-          ++saturated_frames_;
-          continue;
-        }
+        MarkClipped(&s);
         samples_.push_back(s);
       }
     }
@@ -308,9 +311,14 @@ int CueTextureFit::SolveChannel(int c, int res, const Vec5& global, std::vector<
     for (int k = 0; k < kBases; ++k) out[k] = s.cues[3 * k + c] / cue_scale_[3 * k + c];
   };
   // out = (J^T J + smoothness + ridge) x, J the data term's Jacobian.
+  // A clipped channel predicted above its observed value has no term.
+  const std::vector<char>& active = active_[c];
+  auto counts = [&](size_t i) { return !(samples_[i].clipped >> c & 1) || active[i]; };
   auto apply = [&](const std::vector<double>& x, std::vector<double>* out) {
     std::fill(out->begin(), out->end(), 0.0);
-    for (const Sample& s : samples_) {
+    for (size_t i = 0; i < samples_.size(); ++i) {
+      if (!counts(i)) continue;
+      const Sample& s = samples_[i];
       double cue[kBases];
       scaled_cues(s, cue);
       const Bilinear b = BilinearAt(s.u, s.v, res);
@@ -344,7 +352,9 @@ int CueTextureFit::SolveChannel(int c, int res, const Vec5& global, std::vector<
   // Right-hand side and block-Jacobi preconditioner.
   std::vector<double> rhs(texels * kBases, 0.0);
   std::vector<Mat5> block(texels, Mat5::Zero());
-  for (const Sample& s : samples_) {
+  for (size_t i = 0; i < samples_.size(); ++i) {
+    if (!counts(i)) continue;
+    const Sample& s = samples_[i];
     double cue[kBases];
     scaled_cues(s, cue);
     const Eigen::Map<const Vec5> q(cue);
@@ -435,10 +445,41 @@ int CueTextureFit::SolveWeights(bool from_scratch) {
   return iterations[0] + iterations[1] + iterations[2];
 }
 
-CueFitStats CueTextureFit::Solve() {
+int64_t CueTextureFit::UpdateActiveSets() {
+  int64_t changed = 0;
+  for (size_t i = 0; i < samples_.size(); ++i) {
+    const Sample& s = samples_[i];
+    if (!s.clipped) continue;
+    const std::array<float, kWeights> w = WeightsAt(s.u, s.v);
+    for (int c = 0; c < 3; ++c) {
+      if (!(s.clipped >> c & 1)) continue;
+      double pred = 0;
+      for (int k = 0; k < kBases; ++k) pred += w[3 * k + c] * s.cues[3 * k + c];
+      const char below = pred < s.target[c] ? 1 : 0;
+      changed += below != active_[c][i];
+      active_[c][i] = below;
+    }
+  }
+  return changed;
+}
+
+int CueTextureFit::SolveClipped() {
+  int iterations = 0;
+  for (int round = 0; round < options_.saturation_rounds; ++round) {
+    if (UpdateActiveSets() == 0) break;
+    iterations += SolveWeights(/*from_scratch=*/false);
+  }
+  return iterations;
+}
+
+void CueTextureFit::PrepareSamples() {
   BuildSamples();
-  RELIT_REQUIRE(!samples_.empty(), "cue fit: no unsaturated foreground pixel in the training frames (",
-                saturated_ + saturated_frames_, " left out at the saturation level ", options_.saturation_level, ")");
+  for (auto& active : active_) active.assign(samples_.size(), 1);  // clipped fitted as equal at first
+}
+
+CueFitStats CueTextureFit::Solve() {
+  PrepareSamples();
+  RELIT_REQUIRE(!samples_.empty(), "cue fit: no foreground pixel in the training frames");
   // Unit-RMS cues, so that smoothness and ridge count in pixels' worth.
   std::array<double, kWeights> sum_sq{};
   for (const Sample& s : samples_) {
@@ -462,14 +503,19 @@ CueFitStats CueTextureFit::Solve() {
   }
   CueFitStats stats;
   stats.iterations = SolveWeights(/*from_scratch=*/true);
+  stats.iterations += SolveClipped();
   const int rounds = frames_.empty() ? 0 : options_.align_rounds;
   for (int round = 0; round < rounds; ++round) {
     AlignFrames();
-    BuildSamples();
+    PrepareSamples();
     stats.iterations += SolveWeights(/*from_scratch=*/false);
+    stats.iterations += SolveClipped();
   }
   stats.pixels = static_cast<int64_t>(samples_.size());
-  stats.saturated_pixels = saturated_ + saturated_frames_;
+  for (size_t i = 0; i < samples_.size(); ++i) {
+    stats.saturated_pixels += samples_[i].clipped != 0;
+    for (int c = 0; c < 3; ++c) stats.saturated_above += (samples_[i].clipped >> c & 1) && !active_[c][i];
+  }
 
   const size_t texels = static_cast<size_t>(resolution_) * resolution_;
   std::vector<char> seen(texels, 0);
@@ -481,7 +527,9 @@ CueFitStats CueTextureFit::Solve() {
     for (int c = 0; c < 3; ++c) {
       double pred = 0;
       for (int k = 0; k < kBases; ++k) pred += w[3 * k + c] * s.cues[3 * k + c];
-      sq += (pred - s.target[c]) * (pred - s.target[c]);
+      // A clipped channel only bounds the prediction from below.
+      const double error = (s.clipped >> c & 1) ? std::min(0.0, pred - s.target[c]) : pred - s.target[c];
+      sq += error * error;
     }
   }
   stats.texels_seen = std::count(seen.begin(), seen.end(), 1);

@@ -53,14 +53,21 @@ struct CueFitOptions {
   double tolerance = 1e-5;       // relative residual that ends a level early
   int coarse_levels = 3;         // levels below the final resolution (each half the size)
   int64_t max_pixels = 4000000;  // pixels kept (evenly strided) when the frames hold more
-  // > 0: training pixels with any channel at or above this linear level are
-  // left out: a clipped pixel only says the radiance was at least the white
-  // level (SDR video: 1), and fitting it as equal pulls the weights of bright
-  // surfaces down. 0 = keep every pixel. Off by default: the demo gained
-  // only 0.16 dB with 0.99, and renders that are not clipped (the test
-  // workspaces) lose their brightest pixels.
-  double saturation_level = kDefaultSaturationLevel;
-  static constexpr double kDefaultSaturationLevel = 0.0;
+  // > 0: a training pixel's channel at or above this linear level is
+  // clipped: the video only says the radiance was at least that, so the fit
+  // asks its prediction to be at least the observed value (a one-sided,
+  // squared-hinge term; active-set rounds below) instead of equal to it.
+  // Fitting clipped pixels as equal pulls the weights of bright surfaces
+  // down, and every eval light then renders the object too dark. Sensor
+  // noise spreads a clipped pixel below the white level (8-bit video of a
+  // white surface at the demo's distances reads 0.93-1.0), hence 0.9 for
+  // SDR video. 0 = every pixel is an equality; -1 (auto) = 0.9 when phone
+  // V's video was SDR (capture.json transfer srgb or gamma2.2), else 0
+  // (HDR video keeps highlights; rendered test workspaces are not clipped).
+  double saturation_level = kAutoSaturationLevel;
+  int saturation_rounds = 4;  // active-set rounds for the clipped pixels
+  static constexpr double kAutoSaturationLevel = -1.0;
+  static constexpr double kSdrSaturationLevel = 0.9;
   // Frames added whole (AddFrame) are aligned to the fit: after each solve,
   // every frame's image (and matte) is shifted by the sub-pixel translation
   // that best matches the fit's prediction (Gauss-Newton on the image
@@ -76,9 +83,14 @@ struct CueFitOptions {
   nlohmann::json ToJson() const;
 };
 
+// `level` itself when >= 0; auto (< 0): kSdrSaturationLevel for a capture
+// linearised from SDR video (`capture_transfer` srgb or gamma2.2), else 0.
+double ResolveSaturationLevel(double level, const std::string& capture_transfer);
+
 struct CueFitStats {
   int64_t pixels = 0;       // foreground pixels fitted
-  int64_t saturated_pixels = 0;  // foreground pixels left out as clipped
+  int64_t saturated_pixels = 0;  // foreground pixels with a clipped channel (fitted one-sided)
+  int64_t saturated_above = 0;   // of their clipped channels, those the fit predicts above the observed value
   int64_t texels_seen = 0;  // texels of the final level with pixel weight
   int iterations = 0;       // conjugate-gradient iterations, all levels and channels
   double rms_residual = 0;  // training pixels, linear, all channels
@@ -97,7 +109,7 @@ class CueTextureFit {
 
   // One foreground pixel: its 5 cues' RGB ([k * 3 + c]), texture
   // coordinates (OBJ convention, v up) and linear target RGB (left out when
-  // saturated, see CueFitOptions).
+  // clipped, see CueFitOptions).
   void AddPixel(const float* cues, float u, float v, const float* target_rgb);
   // The foreground pixels (matte >= 0.5, coverage >= 0.5) of a cue frame
   // (channels as cue_frames.h, default format) with its target and matte.
@@ -135,15 +147,15 @@ class CueTextureFit {
 
   int resolution() const { return resolution_; }
   // Foreground pixels held (loose pixels kept by the budget plus the frames'
-  // foreground), before saturated ones are left out.
+  // foreground).
   int64_t pixels() const { return static_cast<int64_t>(loose_.size()) + frame_pixels_; }
-  int64_t saturated_pixels() const { return saturated_; }
 
  private:
   struct Sample {
     float u, v;
     std::array<float, kWeights> cues;
     std::array<float, 3> target;
+    uint8_t clipped = 0;  // bit c: channel c at or above the saturation level
   };
   // A frame kept for alignment: its crop around the proxy's coverage.
   struct Frame {
@@ -154,6 +166,7 @@ class CueTextureFit {
   };
   // samples_ = the loose pixels + every frame's foreground read at its shift.
   void BuildSamples();
+  void MarkClipped(Sample* s) const;
   // Solves all channels: coarse to fine from the global fit (first call)
   // or at the final level from the current weights.
   int SolveWeights(bool from_scratch);
@@ -161,8 +174,17 @@ class CueTextureFit {
   void AlignFrames();
   // Conjugate gradients for colour channel c at `resolution`, from (and
   // into) *z: [texel * 5 + k], weights on unit-RMS cues. Returns iterations.
+  // Clipped channels count only while in active_[c] (predicted below
+  // their observed value).
   int SolveChannel(int c, int resolution, const Eigen::Matrix<double, kBases, 1>& global,
                    std::vector<double>* z) const;
+  // Puts each clipped channel predicted below its observed value into the
+  // active set; returns how many changed.
+  int64_t UpdateActiveSets();
+  // Active-set rounds (saturation_rounds) at the final level; returns CG iterations.
+  int SolveClipped();
+  // BuildSamples with every clipped channel active.
+  void PrepareSamples();
 
   int resolution_;
   CueFitOptions options_;
@@ -175,8 +197,7 @@ class CueTextureFit {
   std::array<std::vector<double>, 3> z_;  // per channel, [texel * 5 + k], on unit-RMS cues
   int64_t offered_ = 0;  // pixels offered to AddPixel (samples_ may keep fewer)
   int64_t stride_ = 1;   // samples_ holds every stride-th pixel offered
-  int64_t saturated_ = 0;  // loose pixels left out at the saturation level
-  int64_t saturated_frames_ = 0;  // frame pixels left out at the saturation level (last BuildSamples)
+  std::array<std::vector<char>, 3> active_;  // per channel and sample: clipped channel fitted as equal
   std::array<float, kWeights> cue_scale_{};  // RMS of each cue channel
   std::vector<float> weights_;  // [texel][k * 3 + c], unscaled
   bool solved_ = false;

@@ -158,18 +158,68 @@ TEST(CueTextureFitTest, AlignmentRecoversEachFramesShift) {
   EXPECT_LT(aligned.rms_residual, 0.5 * unaligned.rms_residual);
 }
 
-// A clipped pixel only bounds the radiance from below: left out of the fit.
-TEST(CueTextureFitTest, LeavesOutSaturatedPixels) {
+// A clipped channel only bounds the radiance from below. A red surface
+// (albedo 0.8, 0.35, 0.35) seen under a Lambert cue of 1 and of 2: under 2
+// its red reads 1 (clipped from 1.6). Fitted as equal, the clipped pixels
+// pull red down to ~0.6; fitted one-sided, red stays 0.8 and green, never
+// clipped, is untouched.
+TEST(CueTextureFitTest, FitsClippedChannelsOneSided) {
+  auto fit_red = [](double saturation_level, CueFitStats* stats) {
+    CueFitOptions options;
+    options.saturation_level = saturation_level;
+    CueTextureFit fit(4, options);
+    const float dim[15] = {1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+    const float bright[15] = {2, 2, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+    const float dim_rgb[3] = {0.8f, 0.35f, 0.35f}, clipped_rgb[3] = {1.0f, 0.7f, 0.7f};
+    for (int i = 0; i < 100; ++i) {
+      if (i % 2) {
+        fit.AddPixel(dim, 0.5f, 0.5f, dim_rgb);
+      } else {
+        fit.AddPixel(bright, 0.5f, 0.5f, clipped_rgb);
+      }
+    }
+    *stats = fit.Solve();
+    return fit.WeightsAt(0.5f, 0.5f);
+  };
+  CueFitStats one_sided, equal;
+  const std::array<float, 15> w = fit_red(0.9, &one_sided);
+  const std::array<float, 15> w_equal = fit_red(0, &equal);
+  EXPECT_EQ(one_sided.pixels, 100);
+  EXPECT_EQ(one_sided.saturated_pixels, 50);
+  EXPECT_EQ(one_sided.saturated_above, 50);  // 2 x 0.8 = 1.6 > 1
+  EXPECT_NEAR(w[0], 0.8, 0.01);
+  EXPECT_NEAR(w[1], 0.35, 0.01);
+  EXPECT_LT(one_sided.rms_residual, 0.01);
+  EXPECT_EQ(equal.saturated_pixels, 0);
+  EXPECT_NEAR(w_equal[0], 0.56, 0.02);  // (0.8 + 2 x 1) / (1 + 4)
+  EXPECT_NEAR(w_equal[1], 0.35, 0.01);
+}
+
+// A clipped pixel the fit predicts below its reading stays an equality.
+TEST(CueTextureFitTest, ClippedPixelsStillPullUp) {
   CueFitOptions options;
-  options.saturation_level = 0.99;
+  options.saturation_level = 0.9;
   CueTextureFit fit(4, options);
   const float cues[15] = {1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
-  const float dark[3] = {0.5f, 0.5f, 0.5f}, clipped[3] = {1.0f, 0.7f, 0.7f};
-  for (int i = 0; i < 100; ++i) fit.AddPixel(cues, 0.5f, 0.5f, i % 2 ? dark : clipped);
-  EXPECT_EQ(fit.saturated_pixels(), 50);
+  const float dark[3] = {0.5f, 0.5f, 0.5f}, clipped[3] = {0.95f, 0.95f, 0.95f};
+  for (int i = 0; i < 100; ++i) fit.AddPixel(cues, 0.5f, 0.5f, i % 4 ? dark : clipped);
   const CueFitStats stats = fit.Solve();
-  EXPECT_EQ(stats.pixels, 50);
-  EXPECT_NEAR(fit.WeightsAt(0.5f, 0.5f)[0], 0.5, 0.01);  // the unclipped pixels' albedo
+  EXPECT_EQ(stats.saturated_above, 0);
+  EXPECT_NEAR(fit.WeightsAt(0.5f, 0.5f)[0], 0.25 * 0.95 + 0.75 * 0.5, 0.01);
+}
+
+// Auto: clipped pixels only in SDR video; an explicit level always wins.
+TEST(CueTextureFitTest, ResolvesTheAutoSaturationLevelFromTheCapture) {
+  EXPECT_EQ(ResolveSaturationLevel(-1, "srgb"), CueFitOptions::kSdrSaturationLevel);
+  EXPECT_EQ(ResolveSaturationLevel(-1, "gamma2.2"), CueFitOptions::kSdrSaturationLevel);
+  EXPECT_EQ(ResolveSaturationLevel(-1, "hlg"), 0.0);
+  EXPECT_EQ(ResolveSaturationLevel(-1, "pq"), 0.0);
+  EXPECT_EQ(ResolveSaturationLevel(-1, ""), 0.0);
+  EXPECT_EQ(ResolveSaturationLevel(0.5, "srgb"), 0.5);
+  EXPECT_EQ(ResolveSaturationLevel(0, "srgb"), 0.0);
+  CueFitOptions bad;
+  bad.saturation_level = -0.5;
+  EXPECT_ANY_THROW(bad.Check());
 }
 
 TEST(CueTextureFitTest, RefusesBadOptionsAndEmptyFits) {

@@ -22,9 +22,8 @@ class CuesOnlyBaseline {
   // pixel's contribution.
   static constexpr double kDefaultRidge = 4.0;
   // Training pixels with any channel at or above `saturation_level` are
-  // left out, as in the smooth fit (cue_texture_fit.h); 0 keeps them all.
-  explicit CuesOnlyBaseline(int resolution_px = 128, double ridge = kDefaultRidge,
-                            double saturation_level = CueFitOptions::kDefaultSaturationLevel);
+  // left out; 0 (the default, the plain per-texel baseline) keeps them all.
+  explicit CuesOnlyBaseline(int resolution_px = 128, double ridge = kDefaultRidge, double saturation_level = 0);
 
   // Adds the foreground pixels (matte >= 0.5, coverage >= 0.5) of one
   // training frame: a cue frame (channels as cue_frames.h), the linear

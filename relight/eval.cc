@@ -159,15 +159,6 @@ Image Scaled(Image image, double factor) {
   return image;
 }
 
-// How relit-capture linearised phone V's video (capture.json
-// inputs.view.transfer_used: srgb, gamma2.2, hlg, pq); "" without a
-// capture.json (a workspace not made by relit-capture, e.g. test fixtures).
-std::string CaptureTransfer(const fs::path& root) {
-  const std::string path = CaptureFilePath(root.string());
-  if (!fs::exists(path)) return "";
-  return ReadCaptureFile(path).inputs.at("view").transfer_used;
-}
-
 void RequireSize(const Image& image, const Intrinsics& intrinsics, const std::string& path) {
   RELIT_REQUIRE(image.width() == intrinsics.width && image.height() == intrinsics.height, path, " is ",
                 image.width(), "x", image.height(), ", truth.json's eval intrinsics say ", intrinsics.width, "x",
@@ -272,7 +263,11 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
     auto timer = record.Time("fit_cue_regressions");
     const Plan plan = ReadPlan((root / "relight/plan/plan.json").string());
     if (want_cues_only) baseline = std::make_unique<CuesOnlyBaseline>(options.baseline_resolution_px, options.baseline_ridge);
-    if (want_cue_fit) cue_fit = std::make_unique<CueTextureFit>(options.cue_fit_resolution_px, CueFitOptions{});
+    if (want_cue_fit) {
+      CueFitOptions fit = options.cue_fit;
+      fit.saturation_level = ResolveSaturationLevel(fit.saturation_level, CaptureTransfer(root.string()));
+      cue_fit = std::make_unique<CueTextureFit>(options.cue_fit_resolution_px, fit);
+    }
     std::vector<const PlanFrame*> frames;
     for (const PlanFrame& f : plan.frames) {
       if (!f.validation) frames.push_back(&f);
@@ -306,7 +301,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
   }
   // The white level: 1 for SDR video (sRGB / gamma 2.2, what relit-synth
   // writes); HDR captures keep highlights above 1, so 1 would be wrong there.
-  const std::string capture_transfer = CaptureTransfer(root);
+  const std::string capture_transfer = CaptureTransfer(root.string());
   if ((capture_transfer == "hlg" || capture_transfer == "pq") && options.clip_radiance == 1.0) {
     spdlog::warn("eval: the capture linearised {} video (1 = reference white, highlights above it), but "
                  "eval.clip_radiance is 1: set it to the video's peak in linear units, or 0 for no clip",
@@ -344,10 +339,14 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
       reference = Scaled(reference.SelectChannels(std::vector<int>{0, 1, 2}), truth.exposure);
       ClipRadiance(&reference, options.clip_radiance);
       settings.seed = options.seed * 1000003 + v * 1000 + l;
+      CueRenderSettings light_settings = settings;
+      if (light.type == "environment" && options.environment_samples_per_pixel > 0) {
+        light_settings.samples_per_pixel = options.environment_samples_per_pixel;
+      }
       Image cues;
       {
         auto timer = record.Time("cues");
-        cues = RenderCueFrame(*scene, camera, ToCueLight(light, unit_factor), settings, format);
+        cues = RenderCueFrame(*scene, camera, ToCueLight(light, unit_factor), light_settings, format);
       }
       if (view.twins.count(light.name) > 0) {
         floors.push_back(TruthNoiseFloor(view, light, reference, matte, truth, options.clip_radiance));
@@ -425,6 +424,8 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
                      {"pixels", baseline ? baseline->pixels_used() : 0}}},
       {"cue_fit", {{"training_frames", baseline_frames},
                    {"resolution_px", options.cue_fit_resolution_px},
+                   {"saturation_level", ResolveSaturationLevel(options.cue_fit.saturation_level,
+                                                               CaptureTransfer(root.string()))},
                    {"pixels", cue_fit ? cue_fit->pixels() : 0}}},
       {"models", asset.partition_models},
       {"zoom_pngs", zooms},

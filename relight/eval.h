@@ -55,11 +55,16 @@ struct EvalOptions {
   // is augmented.
   std::vector<std::string> methods = {"model", "model_point_light", "cue_fit", "cues_only"};
   int samples_per_pixel = 0;        // cue paths for the eval views; 0 = render.samples_per_pixel
+  // Cue paths under environment lights, whose cues are far noisier than a
+  // point or directional light's at equal samples (the prediction is linear
+  // in the cues, so their noise is the prediction's). 0 = samples_per_pixel.
+  int environment_samples_per_pixel = 0;
   uint64_t seed = 1;                // per-image cue seeds derive from it
   int max_views = 0;                // 0 = every eval view (else the first N of each view set, for quick checks)
   int baseline_resolution_px = 128; // cues_only texel grid
   double baseline_ridge = CuesOnlyBaseline::kDefaultRidge;  // cues_only pull towards the global fit (pixels' worth)
-  int cue_fit_resolution_px = 256;  // cue_fit texel grid (the fit's other options: train.cue_fit defaults)
+  int cue_fit_resolution_px = 256;  // cue_fit texel grid
+  CueFitOptions cue_fit;            // the cue_fit method's other options (as train.cue_fit)
   double error_map_scale = 5.0;     // error PNGs show |pred - GT| x this
   // The capture's linear white level: render and truth are clipped per RGB
   // channel to [0, clip_radiance] before scoring, since an 8-bit video holds

@@ -159,14 +159,19 @@ std::vector<torch::Tensor> DnlModelImpl::gates() const {
   return {renderer_gate_, mask_gate_};
 }
 
-Losses DnlModelImpl::Loss(const ModelOutput& output, const Batch& batch_in, double mask_loss_weight) const {
+Losses DnlModelImpl::Loss(const ModelOutput& output, const Batch& batch_in, double mask_loss_weight,
+                          double saturation_level) const {
   batch_in.Check(/*need_targets=*/true);
   const Batch batch = batch_in.To(device_);
   const auto& matte = batch.target_matte;
   const auto target_log = encoding_.Encode(batch.target_rgb);
   // L1 in log space where the object is: the matte weights each pixel, the
   // mean is over the matte's area (at least one pixel).
-  const auto rgb = (matte * (output.rgb_log - target_log).abs()).sum() / (matte.sum() * 3.0).clamp_min(1.0);
+  auto difference = output.rgb_log - target_log;
+  if (saturation_level > 0) {
+    difference = torch::where(batch.target_rgb >= saturation_level, difference.clamp_max(0.0), difference);
+  }
+  const auto rgb = (matte * difference.abs()).sum() / (matte.sum() * 3.0).clamp_min(1.0);
   const auto mask = F::binary_cross_entropy_with_logits(output.mask_logit, matte);
   return {rgb + mask_loss_weight * mask, rgb, mask};
 }
@@ -237,7 +242,8 @@ Losses Trainer::Step(const Batch& batch) {
   const Batch crop = margin_px > 0 ? ObjectWindow(batch, margin_px) : RandomCrop(batch, train_options_.crop_px, generator_);
   optimizer_->zero_grad();
   const ModelOutput output = model_->Forward(crop);
-  const Losses losses = model_->Loss(output, crop, train_options_.mask_loss_weight);
+  const Losses losses =
+      model_->Loss(output, crop, train_options_.mask_loss_weight, saturation_level_);
   losses.total.backward();
   optimizer_->step();
   ++step_;

@@ -92,7 +92,11 @@ class DnlModelImpl : public torch::nn::Module {
   explicit DnlModelImpl(const ModelOptions& options);
 
   ModelOutput Forward(const Batch& batch);
-  Losses Loss(const ModelOutput& output, const Batch& batch, double mask_loss_weight = 1.0) const;
+  // `saturation_level` > 0: target channels at or above it were clipped by
+  // the video and only bound the radiance from below (no loss where the
+  // output is brighter), as in the cue fit (CueFitOptions).
+  Losses Loss(const ModelOutput& output, const Batch& batch, double mask_loss_weight = 1.0,
+              double saturation_level = 0) const;
   // Premultiplied linear RGBA [B, 4, H, W]: decoded RGB x alpha, alpha =
   // sigmoid(mask logit). No gradients. With object_window_margin_px > 0 the
   // networks see only the object's window, as in training; outside it the
@@ -138,6 +142,10 @@ class Trainer {
   const TrainOptions& train_options() const { return train_options_; }
   int64_t step() const { return step_; }
   void set_step(int64_t step) { step_ = step; }
+  // > 0: targets at or above this level were clipped by the video (a
+  // one-sided loss there, DnlModelImpl::Loss). The train stage sets it from
+  // train.cue_fit.saturation_level; 0 (augmentation's rendered targets).
+  void set_saturation_level(double level) { saturation_level_ = level; }
 
  private:
   TrainOptions train_options_;
@@ -145,6 +153,7 @@ class Trainer {
   std::unique_ptr<torch::optim::Adam> optimizer_;
   at::Generator generator_;
   int64_t step_ = 0;
+  double saturation_level_ = 0;
 };
 
 // "cpu", "cuda" (Error when CUDA is not available) or "auto".

@@ -171,6 +171,24 @@ TEST(DnlModelTest, LossIsMaskedL1InLogSpacePlusBceWithLogits) {
   EXPECT_NEAR(model->Loss(out, changed).rgb.item<double>(), rgb, 1e-5);
 }
 
+// A clipped target channel only bounds the output from below: an output
+// brighter than it costs nothing, a darker one costs as before.
+TEST(DnlModelTest, LossIsOneSidedOnClippedTargets) {
+  const auto material = testing::SyntheticMaterial(3);
+  Batch batch = testing::SyntheticFrame(material, 8, 0, 4);
+  batch.target_matte = torch::ones_like(batch.target_matte);
+  batch.target_rgb = torch::full_like(batch.target_rgb, 1.0);  // every channel clipped
+  DnlModel model(testing::TinyModelOptions());
+  const auto target_log = model->encoding().Encode(batch.target_rgb);
+  ModelOutput out;
+  out.mask_logit = torch::zeros({1, 1, 8, 8});
+  out.rgb_log = target_log + 0.3;  // brighter than the clipped reading
+  EXPECT_GT(model->Loss(out, batch, 1.0, 0).rgb.item<double>(), 0.29);
+  EXPECT_NEAR(model->Loss(out, batch, 1.0, 0.9).rgb.item<double>(), 0.0, 1e-7);
+  out.rgb_log = target_log - 0.3;  // darker: still an error
+  EXPECT_NEAR(model->Loss(out, batch, 1.0, 0.9).rgb.item<double>(), 0.3, 1e-5);
+}
+
 TEST(CropTest, CropsEveryPerPixelTensorConsistently) {
   const int64_t h = 12, w = 16;
   const auto rows = torch::arange(h, torch::kFloat).view({1, 1, h, 1}).expand({2, 1, h, w});

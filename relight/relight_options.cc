@@ -289,11 +289,14 @@ nlohmann::json AugmentOptions::ToJson() const {
 void EvalOptions::Read(OptionsReader& r) {
   r.Read("methods", &methods);
   r.ReadRange("samples_per_pixel", &samples_per_pixel, 0, 1 << 16);
+  r.ReadRange("environment_samples_per_pixel", &environment_samples_per_pixel, 0, 1 << 16);
   r.Read("seed", &seed);
   r.ReadRange("max_views", &max_views, 0, 100000);
   r.ReadRange("baseline_resolution_px", &baseline_resolution_px, 1, 4096);
   r.ReadRange("baseline_ridge", &baseline_ridge, 0.0, 1e9);
   r.ReadRange("cue_fit_resolution_px", &cue_fit_resolution_px, 1, 8192);
+  OptionsReader fit_reader = r.Child("cue_fit");
+  cue_fit.Read(fit_reader);
   r.ReadRange("error_map_scale", &error_map_scale, 0.0, 1e6);
   r.ReadRange("clip_radiance", &clip_radiance, 0.0, 1e9);
   r.Read("write_images", &write_images);
@@ -311,6 +314,9 @@ void EvalOptions::Check() const {
     RELIT_REQUIRE(seen.insert(m).second, "eval.methods lists '", m, "' twice");
   }
   RELIT_REQUIRE(samples_per_pixel >= 0, "eval.samples_per_pixel must be >= 0 (0 = render.samples_per_pixel)");
+  RELIT_REQUIRE(environment_samples_per_pixel >= 0,
+                "eval.environment_samples_per_pixel must be >= 0 (0 = eval.samples_per_pixel)");
+  cue_fit.Check();
   RELIT_REQUIRE(max_views >= 0, "eval.max_views must be >= 0 (0 = all)");
   RELIT_REQUIRE(baseline_resolution_px >= 1, "eval.baseline_resolution_px must be >= 1");
   RELIT_REQUIRE(baseline_ridge >= 0, "eval.baseline_ridge must be >= 0");
@@ -321,11 +327,13 @@ void EvalOptions::Check() const {
 nlohmann::json EvalOptions::ToJson() const {
   return {{"methods", methods},
           {"samples_per_pixel", samples_per_pixel},
+          {"environment_samples_per_pixel", environment_samples_per_pixel},
           {"seed", seed},
           {"max_views", max_views},
           {"baseline_resolution_px", baseline_resolution_px},
           {"baseline_ridge", baseline_ridge},
           {"cue_fit_resolution_px", cue_fit_resolution_px},
+          {"cue_fit", cue_fit.ToJson()},
           {"error_map_scale", error_map_scale},
           {"clip_radiance", clip_radiance},
           {"write_images", write_images}};

@@ -117,9 +117,14 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
     }
   }
 
+  // Clipped video pixels: one-sided in the warm start and in the loss.
+  CueFitOptions cue_fit = options.optimizer.cue_fit;
+  cue_fit.saturation_level = ResolveSaturationLevel(cue_fit.saturation_level, CaptureTransfer(workspace));
+  trainer->set_saturation_level(cue_fit.saturation_level);
+  record.Set("saturation_level", cue_fit.saturation_level);
   if (fresh && model_options.residual()) {
     auto timer = record.Time("warm_start");
-    const WarmStartResult start = WarmStartCueRegression(trainer->model(), frames, options.optimizer.cue_fit);
+    const WarmStartResult start = WarmStartCueRegression(trainer->model(), frames, cue_fit);
     json fit = model_options.cue_fit == "smooth"
                    ? start.stats.ToJson()
                    : json{{"pixels", start.stats.pixels},
