@@ -145,6 +145,10 @@ struct TrainStageOptions {
   int validate_every = 500;      // 0 = only at the end
   int log_every = 10;
   int max_validation_frames = 4; // validation renders whole frames: keep it small
+  // Residual model: after training, each correction network stays only if
+  // it beats the cue regression / the proxy's coverage on the validation
+  // frames (train_loop.h KeepHelpfulCorrections); false = keep both.
+  bool validate_corrections = true;
   TrainOptions optimizer;        // Adam, crops, seed, threads (same keys, same level)
 
   void Read(OptionsReader& reader);

@@ -222,6 +222,7 @@ void TrainStageOptions::Read(OptionsReader& reader) {
   reader.ReadRange("validate_every", &validate_every, 0, 100000000);
   reader.ReadRange("log_every", &log_every, 1, 100000000);
   reader.ReadRange("max_validation_frames", &max_validation_frames, 0, 1000);
+  reader.Read("validate_corrections", &validate_corrections);
   optimizer.Read(reader);  // the optimiser's keys sit at the same level; it calls Finish()
   Check();
 }
@@ -241,6 +242,7 @@ nlohmann::json TrainStageOptions::ToJson() const {
   j["validate_every"] = validate_every;
   j["log_every"] = log_every;
   j["max_validation_frames"] = max_validation_frames;
+  j["validate_corrections"] = validate_corrections;
   return j;
 }
 

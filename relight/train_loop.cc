@@ -85,6 +85,36 @@ ImageMetrics Validate(DnlModel& model, const std::vector<Batch>& frames) {
   return PoolMetrics(metrics);
 }
 
+nlohmann::json CorrectionChoice::ToJson() const {
+  auto metrics = [](const ImageMetrics& m) {
+    return nlohmann::json{{"psnr_db", m.psnr_db}, {"mae", m.mae}, {"alpha_mae", m.alpha_mae}};
+  };
+  return {{"renderer_kept", renderer_kept}, {"mask_kept", mask_kept},         {"trained", metrics(trained)},
+          {"without_mask", metrics(without_mask)}, {"without_renderer", metrics(without_renderer)},
+          {"chosen", metrics(chosen)}};
+}
+
+CorrectionChoice KeepHelpfulCorrections(DnlModel& model, const std::vector<Batch>& validation) {
+  RELIT_REQUIRE(model->options().residual() && !validation.empty(),
+                "KeepHelpfulCorrections needs the residual model and validation frames");
+  torch::NoGradGuard no_grad;
+  std::vector<torch::Tensor> gates = model->gates();  // renderer, mask (sharing the parameters' storage)
+  const torch::Tensor renderer_gate = gates[0].detach().clone(), mask_gate = gates[1].detach().clone();
+  CorrectionChoice choice;
+  choice.trained = Validate(model, validation);
+  gates[1].zero_();
+  choice.without_mask = Validate(model, validation);
+  choice.mask_kept = choice.trained.alpha_mae < choice.without_mask.alpha_mae;
+  if (choice.mask_kept) gates[1].copy_(mask_gate);
+  const ImageMetrics& with_renderer = choice.mask_kept ? choice.trained : choice.without_mask;
+  gates[0].zero_();
+  choice.without_renderer = Validate(model, validation);
+  choice.renderer_kept = with_renderer.psnr_db > choice.without_renderer.psnr_db;
+  if (choice.renderer_kept) gates[0].copy_(renderer_gate);
+  choice.chosen = choice.renderer_kept ? with_renderer : choice.without_renderer;
+  return choice;
+}
+
 void TruncateLog(const fs::path& log, int64_t step) {
   if (!fs::exists(log)) return;
   std::ifstream in(log);

@@ -37,6 +37,22 @@ Batch Concatenate(const std::vector<const Batch*>& frames);
 // Whole-frame metrics of `model` on frames with targets, pooled.
 ImageMetrics Validate(DnlModel& model, const std::vector<Batch>& frames);
 
+// The residual model's two corrections (model.h: renderer and mask networks
+// behind gates) judged on held-out frames: the mask correction stays only
+// if it lowers the alpha MAE, the renderer's only if it raises the PSNR;
+// a correction that does not is switched off (its gate set to 0), so the
+// model is never worse there than the cue regression and the proxy's
+// coverage it starts from.
+struct CorrectionChoice {
+  bool renderer_kept = true, mask_kept = true;
+  ImageMetrics trained;            // both corrections as trained
+  ImageMetrics without_mask;       // mask gate 0
+  ImageMetrics without_renderer;   // renderer gate 0 (mask as chosen)
+  ImageMetrics chosen;
+  nlohmann::json ToJson() const;
+};
+CorrectionChoice KeepHelpfulCorrections(DnlModel& model, const std::vector<Batch>& validation);
+
 // Keeps the log lines of steps <= `step` (the checkpoint a resumed run starts from).
 void TruncateLog(const std::filesystem::path& log, int64_t step);
 

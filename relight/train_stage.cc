@@ -161,6 +161,18 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
   result.final_loss = loop.final_loss;
   result.val_psnr_db = loop.validation.psnr_db;
   result.val_mae = loop.validation.mae;
+  if (!loop.interrupted && options.validate_corrections && model_options.residual() && !validation.empty()) {
+    const CorrectionChoice choice = KeepHelpfulCorrections(trainer->model(), validation);
+    if (!choice.renderer_kept || !choice.mask_kept) SaveCheckpoint(checkpoint_dir, *trainer);
+    record.Set("corrections", choice.ToJson());
+    result.val_psnr_db = choice.chosen.psnr_db;
+    result.val_mae = choice.chosen.mae;
+    spdlog::info("train: partition {}: renderer correction {} (validation PSNR {:.2f} dB with, {:.2f} without), "
+                 "mask correction {} (alpha MAE {:.4f} with, {:.4f} without)",
+                 partition, choice.renderer_kept ? "kept" : "off", choice.trained.psnr_db,
+                 choice.without_renderer.psnr_db, choice.mask_kept ? "kept" : "off", choice.trained.alpha_mae,
+                 choice.without_mask.alpha_mae);
+  }
   if (loop.interrupted) {
     result.interrupted = true;
     spdlog::warn("train: partition {} stopped by signal {} at step {}; checkpoint saved, rerun to continue",

@@ -15,6 +15,7 @@
 #include "relight/cues_baseline.h"
 #include "relight/warm_start.h"
 #include "relight/test_scene.h"
+#include "relight/train_loop.h"
 
 namespace relit::relight {
 namespace {
@@ -318,6 +319,38 @@ TEST(ResidualModelTest, CorrectionsImproveOnTheCueRegression) {
   const double after = rgb_loss();
   std::printf("residual rgb loss %.4f -> %.4f (x%.1f)\n", before, after, before / after);
   EXPECT_GT(before / after, 1.5);
+}
+
+// A correction that hurts on held-out frames is switched off; one that
+// helps is kept, and the chosen model is never worse than the trained one.
+TEST(ResidualModelTest, KeepsOnlyCorrectionsThatHelpOnValidationFrames) {
+  std::vector<Batch> frames = Frames(4, 32, 21);
+  ModelOptions model_options = testing::TinyModelOptions();
+  model_options.max_radiance = MaxRadiance(frames);
+  TrainOptions train_options;
+  train_options.threads = 1;
+  Trainer trainer(model_options, train_options);
+  WarmStartCueRegression(trainer.model(), frames, train_options.cue_fit);
+  {
+    torch::NoGradGuard no_grad;
+    for (torch::Tensor gate : trainer.model()->gates()) gate.fill_(25.0);  // untrained networks at full strength
+  }
+  const CorrectionChoice harmful = KeepHelpfulCorrections(trainer.model(), frames);
+  EXPECT_FALSE(harmful.renderer_kept);
+  EXPECT_GT(harmful.without_renderer.psnr_db, harmful.trained.psnr_db);
+  EXPECT_GE(harmful.chosen.psnr_db, harmful.trained.psnr_db);
+  EXPECT_EQ(trainer.model()->gates()[0].item<double>(), 0.0);
+  if (!harmful.mask_kept) EXPECT_EQ(trainer.model()->gates()[1].item<double>(), 0.0);
+
+  Trainer helped(model_options, train_options);
+  WarmStartCueRegression(helped.model(), frames, train_options.cue_fit);
+  for (int s = 0; s < 150; ++s) helped.Step(frames[s % frames.size()]);
+  const double gate = helped.model()->gates()[0].item<double>();
+  const CorrectionChoice useful = KeepHelpfulCorrections(helped.model(), frames);
+  std::printf("trained renderer correction: %.2f dB with, %.2f dB without\n", useful.trained.psnr_db,
+              useful.without_renderer.psnr_db);
+  EXPECT_TRUE(useful.renderer_kept);
+  EXPECT_EQ(helped.model()->gates()[0].item<double>(), gate);
 }
 
 // Checkpoints written before the variants existed hold DNL models.
