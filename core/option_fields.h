@@ -105,12 +105,12 @@ class OptionFields {
     Field field = Value(key, member, doc);
     field.range_text = "[" + internal::FormatOptionValue(min) + ", " + internal::FormatOptionValue(max) + "]";
     field.read = [key, member, min, max](OptionsReader& r, S* s) { ReadValue(r, key, &(s->*member), min, max); };
-    field.check = [key, member, min, max](const S& s, const std::string& context) {
+    field.check = [key, member, min, max, doc](const S& s, const std::string& context) {
       const std::optional<N> value = s.*member;
       // Written as !(in range) so NaN is refused too.
       RELIT_REQUIRE(!value || (*value >= min && *value <= max), internal::Dotted(context, key),
                     " must be in [", internal::FormatOptionValue(min), ", ", internal::FormatOptionValue(max),
-                    "], got ", internal::FormatOptionValue(value.value_or(N{})));
+                    "], got ", internal::FormatOptionValue(value.value_or(N{})), " (", doc, ")");
     };
     fields_.push_back(std::move(field));
     return *this;
@@ -131,10 +131,10 @@ class OptionFields {
         RELIT_REQUIRE(error.empty(), r.Where(key), ": ", error);
       }
     };
-    field.check = [key, member, choices](const S& s, const std::string& context) {
+    field.check = [key, member, choices, doc](const S& s, const std::string& context) {
       for (const std::string& value : Values(s.*member)) {
         const std::string error = internal::ChoiceError(value, choices);
-        RELIT_REQUIRE(error.empty(), internal::Dotted(context, key), ": ", error);
+        RELIT_REQUIRE(error.empty(), internal::Dotted(context, key), ": ", error, " (", doc, ")");
       }
     };
     fields_.push_back(std::move(field));
@@ -187,7 +187,8 @@ class OptionFields {
   }
 
   // Ranges and choices of every field (sections included), then S::Check().
-  // Errors name the dotted key below `context`.
+  // Errors name the dotted key below `context` and end with the field's doc
+  // (which names the command-line flag, if any).
   void Check(const S& options, const std::string& context) const {
     for (const Field& field : fields_) {
       if (field.check) field.check(options, context);

@@ -100,7 +100,8 @@ TEST(OptionFields, CheckOptionsChecksRangesChoicesAndAcrossFields) {
   ProxySection options;
   EXPECT_EQ(ErrorOf([&] { CheckOptions(options); }), "");
   options.hull.min_views = 0;
-  EXPECT_EQ(ErrorOf([&] { CheckOptions(options, "proxy"); }), "proxy.hull.min_views must be in [1, 100], got 0");
+  EXPECT_EQ(ErrorOf([&] { CheckOptions(options, "proxy"); }),
+            "proxy.hull.min_views must be in [1, 100], got 0 (views that see through)");
   options = ProxySection();
   options.method = "nope";
   EXPECT_TRUE(Contains(ErrorOf([&] { CheckOptions(options); }), "method: 'nope' is not one of dense"));
