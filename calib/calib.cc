@@ -64,7 +64,7 @@ std::string FrameFile(const std::string& dir, const CaptureFrame& frame, const s
 }  // namespace
 
 CalibSummary RunCalibImpl(const CalibOptions& options) {
-  options.Check();
+  CheckOptions(options);
   const auto start = std::chrono::steady_clock::now();
   const spdlog::level::level_enum level = ParseLogLevel(options.log_level);
   const fs::path workspace(options.workspace);
@@ -73,7 +73,7 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
   const fs::path root = out.path();
   LogFileScope log_scope((root / "calib.log").string(), level);
   RunRecord record("relit-calib");
-  record.SetOptions(options.ToJson());
+  record.SetOptions(OptionsToJson(options));
   record.AddInput("capture", (workspace / "capture" / "capture.json").string());
   nlohmann::json report;
   std::map<std::string, double> colmap_timings;
@@ -336,14 +336,14 @@ int RunCalib(int argc, char** argv) {
   CalibOptions options;
   if (!config.empty()) {
     OptionsReader reader = OptionsReader::FromFile(config);
-    options.Read(reader);
+    ReadOptions(reader, &options);
   }
   if (!workspace.empty()) options.workspace = workspace;
   if (no_sfm) options.sfm.enabled = false;
   options.force = options_force;
   if (!log_level.empty()) options.log_level = log_level;
   SetVerbosity(ParseLogLevel(options.log_level));
-  options.Check();
+  CheckOptions(options);
   RunCalibImpl(options);
   return 0;
 }

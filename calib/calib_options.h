@@ -1,20 +1,18 @@
 // Options of the calib stage (relit-calib): the printed board, detection,
 // intrinsics, COLMAP structure from motion, the joint refinement, light
-// interpolation and undistortion. Defaults live here; a YAML file (unknown
-// keys are errors) and command-line flags go on top, then Check(). See
-// docs/calib.md for the meaning of every option.
+// interpolation and undistortion. Defaults live here; the field tables
+// (calib_options.cc) read the YAML file (unknown keys are errors),
+// command-line flags go on top, then CheckOptions(). docs/calib.md's table is
+// generated from the field tables (tools/options_doc).
 #pragma once
 
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "core/board.h"
-#include "core/options.h"
+#include "core/option_fields.h"
 
 namespace relit::calib {
-
 
 struct DetectOptions {
   // libapriltag use: "off", "second_pass" (frames where OpenCV finds fewer
@@ -36,9 +34,7 @@ struct DetectOptions {
   double single_marker_min_contrast = 20;
   int threads = 0;                 // 0 = all cores
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<DetectOptions>& Fields();
 };
 
 struct IntrinsicsOptions {
@@ -51,9 +47,7 @@ struct IntrinsicsOptions {
   std::string view_board_images;
   std::string light_board_images;
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<IntrinsicsOptions>& Fields();
 };
 
 struct SfmOptions {
@@ -79,9 +73,8 @@ struct SfmOptions {
   double point_weight = 0.5;       // SfM point residuals relative to board corners
   int threads = 0;                 // 0 = all cores
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<SfmOptions>& Fields();
+  void Check() const;  // the COLMAP executable is named
 };
 
 struct RefineOptions {
@@ -100,18 +93,15 @@ struct RefineOptions {
   double max_corner_rms_px = 1.0;  // board-corner RMS above this: calibration rejected
   double max_ratio_error = 0.04;   // |measured/specified marker-to-square ratio - 1|
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<RefineOptions>& Fields();
 };
 
 struct LightOptions {
   std::vector<double> flash_offset_m = {0.01, 0.0, 0.0};  // in phone L's camera frame
   double max_gap_s = 0.05;         // nearest registered L frame further: unreliable
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<LightOptions>& Fields();
+  void Check() const;  // flash_offset_m has 3 entries below 1 m
 };
 
 struct UndistortOptions {
@@ -120,9 +110,7 @@ struct UndistortOptions {
   double alpha = 0.0;
   bool write_images = true;
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<UndistortOptions>& Fields();
 };
 
 struct CalibOptions {
@@ -139,9 +127,8 @@ struct CalibOptions {
   // holding an input, never a file). Not an option of the config file.
   bool force = false;
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<CalibOptions>& Fields();
+  void Check() const;  // the workspace is given; ranges: CheckOptions
 };
 
 }  // namespace relit::calib

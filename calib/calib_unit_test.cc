@@ -63,28 +63,29 @@ TEST(TruthDisplayTest, TurnedLensAndPoseProjectWhereTheTurnedImageShows) {
 TEST(CalibOptionsTest, UnknownKeysAndBadBoardsAreErrors) {
   CalibOptions o;
   OptionsReader typo = OptionsReader::FromString("sfm: {enabeld: false}\n", "calib.yaml");
-  EXPECT_THROW(o.Read(typo), Error);
+  EXPECT_THROW(ReadOptions(typo, &o), Error);
   CalibOptions even;
-  OptionsReader rows = OptionsReader::FromString("board: {squares_y: 6}\n", "calib.yaml");
-  EXPECT_THROW(even.Read(rows), Error);
+  OptionsReader rows = OptionsReader::FromString("workspace: w\nboard: {squares_y: 6}\n", "calib.yaml");
+  ReadOptions(rows, &even);
+  EXPECT_THROW(CheckOptions(even), Error);
   CalibOptions ok;
   OptionsReader good = OptionsReader::FromString(
       "workspace: w\nboard: {squares_x: 9, squares_y: 7, dictionary: DICT_4X4_50}\nlight: {flash_offset_m: [0.01, 0, 0]}\n",
       "calib.yaml");
-  ok.Read(good);
-  ok.Check();
+  ReadOptions(good, &ok);
+  CheckOptions(ok);
   EXPECT_EQ(ok.board.squares_x, 9);
-  EXPECT_EQ(ok.ToJson()["board"]["dictionary"], "DICT_4X4_50");
+  EXPECT_EQ(OptionsToJson(ok)["board"]["dictionary"], "DICT_4X4_50");
   ok.light.flash_offset_m = {0.0, 1.0};
-  EXPECT_THROW(ok.Check(), Error);
+  EXPECT_THROW(CheckOptions(ok), Error);
   CalibOptions modes;
   OptionsReader mode = OptionsReader::FromString("workspace: w\nsfm: {mode: hierarchical}\n", "calib.yaml");
-  modes.Read(mode);
-  EXPECT_THROW(modes.Check(), Error);
+  EXPECT_THROW(ReadOptions(mode, &modes), Error);
+  modes.sfm.mode = "hierarchical";
+  EXPECT_THROW(CheckOptions(modes), Error);
   CalibOptions solver;
   OptionsReader cg = OptionsReader::FromString("workspace: w\nrefine: {linear_solver: cholesky}\n", "calib.yaml");
-  solver.Read(cg);
-  EXPECT_THROW(solver.Check(), Error);
+  EXPECT_THROW(ReadOptions(cg, &solver), Error);
 }
 
 // A board image warped by a known homography; `truth` receives the board

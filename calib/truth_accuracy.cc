@@ -92,7 +92,7 @@ BoardSpec BoardSpecFromTruth(const json& truth) {
   spec.square_length_m = b.at("square_length_m");
   spec.marker_length_m = b.at("marker_length_m");
   spec.dictionary = b.at("dictionary");
-  spec.Check();
+  CheckOptions(spec);
   return spec;
 }
 

@@ -167,7 +167,7 @@ void CaptureGeometry(const CaptureOptions& o, const fs::path& root, RunRecord* r
 }  // namespace
 
 CaptureSummary RunCaptureImpl(const CaptureOptions& options) {
-  options.Check();
+  CheckOptions(options);
   const auto start = std::chrono::steady_clock::now();
   const spdlog::level::level_enum level = ParseLogLevel(options.log_level);
   AtomicDir out(options.out, OutputGuard{"relit-capture", options.force,
@@ -175,7 +175,7 @@ CaptureSummary RunCaptureImpl(const CaptureOptions& options) {
   const fs::path root = out.path();
   LogFileScope log_scope((root / "capture.log").string(), level);
   RunRecord record("relit-capture");
-  record.SetOptions(options.ToJson());
+  record.SetOptions(OptionsToJson(options));
   record.AddInput("view", options.view);
   record.AddInput("light", options.light);
   if (!options.geometry.empty()) record.AddInput("geometry", options.geometry);
@@ -305,7 +305,7 @@ CaptureSummary RunCaptureImpl(const CaptureOptions& options) {
   if (!options.geometry.empty()) {
     CaptureGeometry(options, root, &record, &capture, &summary.geometry_frames_kept);
   }
-  capture["options"] = options.ToJson();
+  capture["options"] = OptionsToJson(options);
   // The only field that differs between reruns with the same inputs.
   capture["timings_s"] = record.ToJson()["timings_s"];
   WriteJsonFile((root / "capture.json").string(), kCaptureKind, kCaptureVersion, capture);
@@ -374,14 +374,13 @@ int RunCapture(int argc, char** argv) {
   CaptureOptions options;
   if (!config.empty()) {
     OptionsReader reader = OptionsReader::FromFile(config);
-    options.Read(reader);
+    ReadOptions(reader, &options);
   }
   if (!view.empty()) options.view = view;
   if (!light.empty()) options.light = light;
   if (!geometry.empty()) options.geometry = geometry;
   if (!out.empty()) options.out = out;
   if (offset->count() > 0) {
-    options.sync.manual = true;
     options.sync.offset_s = offset_s;
   }
   if (window->count() > 0) options.sync.max_offset_s = max_offset_s;
@@ -397,7 +396,7 @@ int RunCapture(int argc, char** argv) {
   if (correct_drift) options.sync.correct_drift = true;
   if (!log_level.empty()) options.log_level = log_level;
   SetVerbosity(ParseLogLevel(options.log_level));
-  options.Check();
+  CheckOptions(options);
   RunCaptureImpl(options);
   return 0;
 }

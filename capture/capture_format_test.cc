@@ -70,7 +70,7 @@ std::string LightCopy(const std::string& view) {
 
 CaptureOptions LenientOptions(const std::string& view, const std::string& out) {
   CaptureOptions o = TestOptions(view, LightCopy(view), out);
-  o.sync.manual = true;
+  o.sync.offset_s = 0.0;
   o.view_select.target_frames = 1000;
   o.view_select.min_blur_ratio = 0;
   o.view_select.max_dark_fraction = 1;

@@ -1,22 +1,21 @@
 // Options of the capture stage (relit-capture): inputs, audio sync, frame
-// selection, linearisation and output size. Defaults live here; a YAML file
-// (unknown keys are errors) and command-line flags go on top, then Check().
-// See docs/capture.md for the meaning of every option.
+// selection, linearisation and output size. Defaults live here; the field
+// tables (capture_options.cc) read the YAML file (unknown keys are errors),
+// command-line flags go on top, then CheckOptions(). docs/capture.md's
+// table is generated from the field tables (tools/options_doc).
 #pragma once
 
+#include <optional>
 #include <string>
 
-#include <nlohmann/json.hpp>
-
-#include "core/options.h"
+#include "core/option_fields.h"
 
 namespace relit::capture {
 
 struct SyncOptions {
   // Manual override: when set, t_view = t_light + offset_s and no audio is
-  // needed. Absent (manual = false) means audio cross-correlation.
-  bool manual = false;
-  double offset_s = 0.0;
+  // needed. Unset means audio cross-correlation.
+  std::optional<double> offset_s;
   int sample_rate_hz = 16000;        // both tracks are resampled to this rate
   double max_offset_s = 10.0;        // search window: |offset| <= max_offset_s
   double min_confidence = 2.0;       // main peak / best peak outside the exclusion zone
@@ -29,9 +28,8 @@ struct SyncOptions {
   double drift_window_s = 3.0;       // length of each window (shorter: less smear from the drift)
   double drift_warn_ms_per_min = 1.0;
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<SyncOptions>& Fields();
+  void Check() const;  // across fields; ranges: CheckOptions
 };
 
 // Quality filters and subsampling, applied to phone V (and the geometry pass).
@@ -47,9 +45,8 @@ struct SelectOptions {
   double duplicate_max_diff = 0.0005;  // mean |luma difference| to the previous frame
   int analysis_width_px = 480;       // frames are scored at this width (or smaller)
 
-  void Read(OptionsReader& reader);
-  void Check(const std::string& section) const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<SelectOptions>& Fields();
+  void Check() const;  // across fields; ranges: CheckOptions
 };
 
 struct CaptureOptions {
@@ -74,9 +71,8 @@ struct CaptureOptions {
   // holding an input, never a file). Not an option of the config file.
   bool force = false;
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<CaptureOptions>& Fields();
+  void Check() const;  // across fields and the file system; ranges: CheckOptions
 };
 
 }  // namespace relit::capture

@@ -197,10 +197,10 @@ void EstimateSyncDrift(const AudioTrack& a, const AudioTrack& b, const SyncOptio
 
 SyncResult Synchronise(const VideoInfo& view, const VideoInfo& light, const SyncOptions& o) {
   SyncResult result;
-  if (o.manual) {
+  if (o.offset_s) {
     result.method = "manual";
-    result.offset_s = o.offset_s;
-    spdlog::info("sync: manual offset {:+.6f} s (t_view = t_light + offset)", o.offset_s);
+    result.offset_s = *o.offset_s;
+    spdlog::info("sync: manual offset {:+.6f} s (t_view = t_light + offset)", *o.offset_s);
     if (o.correct_drift) {
       spdlog::warn("sync: sync.correct_drift needs audio sync; not applied with a manual offset");
     }

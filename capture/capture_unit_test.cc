@@ -175,21 +175,21 @@ TEST(CaptureOptionsTest, YamlOverridesAndUnknownKeys) {
       "view: v.mp4\nlight: l.mp4\nout: ws/capture\nsync:\n  offset_s: 0.5\nview_select:\n"
       "  target_frames: 40\n");
   CaptureOptions o;
-  o.Read(reader);
-  o.Check();
-  EXPECT_TRUE(o.sync.manual);
-  EXPECT_EQ(o.sync.offset_s, 0.5);
+  ReadOptions(reader, &o);
+  CheckOptions(o);
+  ASSERT_TRUE(o.sync.offset_s.has_value());
+  EXPECT_EQ(*o.sync.offset_s, 0.5);
   EXPECT_EQ(o.view_select.target_frames, 40);
   OptionsReader typo = OptionsReader::FromString("view_select:\n  min_blur_ration: 0.5\n");
   CaptureOptions p;
   try {
-    p.Read(typo);
+    ReadOptions(typo, &p);
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("min_blur_ratio"), std::string::npos) << e.what();
   }
   OptionsReader absurd = OptionsReader::FromString("sync:\n  sample_rate_hz: 5\n");
-  EXPECT_THROW(p.Read(absurd), Error);
+  EXPECT_THROW(ReadOptions(absurd, &p), Error);
 }
 
 }  // namespace

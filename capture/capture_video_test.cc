@@ -111,7 +111,6 @@ TEST_F(CaptureVideoTest, AudioSyncRecoversOffsetOfEitherSign) {
 
 TEST_F(CaptureVideoTest, ManualOffsetOverridesAudio) {
   CaptureOptions o = TestOptions(In("view.mp4"), In("silent.mp4"), *dir_ / "out_manual");
-  o.sync.manual = true;
   o.sync.offset_s = 0.25;
   const CaptureSummary summary = RunCaptureImpl(o);
   EXPECT_EQ(summary.sync_method, "manual");
@@ -146,7 +145,7 @@ TEST_F(CaptureVideoTest, RefusesTruncatedFileWithoutIndex) {
   fs::copy_file(In("moov_last.mp4"), cut, fs::copy_options::overwrite_existing);
   fs::resize_file(cut, fs::file_size(cut) * 6 / 10);
   CaptureOptions o = TestOptions(cut, In("light.mp4"), *dir_ / "out_moov_cut");
-  o.sync.manual = true;
+  o.sync.offset_s = 0.0;
   ExpectFailure(o, {"moov_cut.mp4", "truncated or not a video"});
 }
 
@@ -155,7 +154,6 @@ TEST_F(CaptureVideoTest, TruncatedStreamNeedsAllowPartial) {
   fs::copy_file(In("view.mp4"), cut, fs::copy_options::overwrite_existing);
   fs::resize_file(cut, fs::file_size(cut) * 6 / 10);
   CaptureOptions o = TestOptions(cut, In("light.mp4"), *dir_ / "out_cut");
-  o.sync.manual = true;
   o.sync.offset_s = 0.0;
   ExpectFailure(o, {"view_cut.mp4", "decode error at t =", "--allow-partial"});
 
@@ -177,7 +175,6 @@ TEST_F(CaptureVideoTest, TruncatedStreamNeedsAllowPartial) {
 
 TEST_F(CaptureVideoTest, RefusesVideosThatDoNotOverlap) {
   CaptureOptions o = TestOptions(In("view.mp4"), In("light.mp4"), *dir_ / "out_apart");
-  o.sync.manual = true;
   o.sync.offset_s = 30.0;
   ExpectFailure(o, {"do not overlap", "--offset-s"});
 }
@@ -187,7 +184,7 @@ TEST_F(CaptureVideoTest, RefusesWhenNoFrameIsLeft) {
   Shell("ffmpeg -nostdin -v error -y -f lavfi -i color=c=black:size=160x120:rate=30:d=1 "
         "-c:v libx264 -pix_fmt yuv420p " + black);
   CaptureOptions o = TestOptions(black, In("light.mp4"), *dir_ / "out_black");
-  o.sync.manual = true;
+  o.sync.offset_s = 0.0;
   ExpectFailure(o, {"no phone V frame left", "dark", "view_select"});
 }
 
@@ -238,13 +235,13 @@ TEST_F(CaptureVideoTest, RefusesOutputsThatWouldLoseFilesAndInputsThatFakeACaptu
   EXPECT_EQ(read(user / "notes.txt"), "mine");
   // A folder of someone else's files without --force.
   o = TestOptions(In("view.mp4"), In("light.mp4"), user);
-  o.sync.manual = true;
+  o.sync.offset_s = 0.0;
   EXPECT_NE(error_of(o).find("--force"), std::string::npos) << error_of(o);
   // One video as both phones (the same path, or a copy).
   o = TestOptions(In("view.mp4"), In("view.mp4"), *dir_ / "out_same");
   EXPECT_NE(error_of(o).find("same file"), std::string::npos) << error_of(o);
   o = TestOptions(In("view.mp4"), user / "v.mp4", *dir_ / "out_same");
-  o.sync.manual = true;
+  o.sync.offset_s = 0.0;
   EXPECT_NE(error_of(o).find("same video"), std::string::npos) << error_of(o);
   // A folder, and a still image renamed .mp4, as videos.
   o = TestOptions(user.string(), In("light.mp4"), *dir_ / "out_folder");
@@ -252,7 +249,7 @@ TEST_F(CaptureVideoTest, RefusesOutputsThatWouldLoseFilesAndInputsThatFakeACaptu
   cv::imwrite(*dir_ / "still.png", cv::Mat(64, 64, CV_8UC3, cv::Scalar(40, 80, 120)));
   fs::copy_file(*dir_ / "still.png", *dir_ / "still.mp4", fs::copy_options::overwrite_existing);
   o = TestOptions(*dir_ / "still.mp4", In("light.mp4"), *dir_ / "out_still");
-  o.sync.manual = true;
+  o.sync.offset_s = 0.0;
   EXPECT_NE(error_of(o).find("still image"), std::string::npos) << error_of(o);
   EXPECT_FALSE(fs::exists(*dir_ / "out_still"));
 }

@@ -6,35 +6,40 @@
 
 namespace relit {
 
+const OptionFields<BoardSpec>& BoardSpec::Fields() {
+  static const auto fields =
+      OptionFields<BoardSpec>()
+          .Add("squares_x", &BoardSpec::squares_x, 3, 100, "squares along the printed rows")
+          .Add("squares_y", &BoardSpec::squares_y, 3, 100,
+               "squares down the printed image; odd (OpenCV 4.6 changed the layout for even rows)")
+          .Add("square_length_m", &BoardSpec::square_length_m, 1e-4, 1.0, "printed square side, metres (measure it)")
+          .Add("marker_length_m", &BoardSpec::marker_length_m, 1e-4, 1.0,
+               "printed marker side, metres; smaller than the square")
+          .Add("dictionary", &BoardSpec::dictionary, DictionaryNames(), "the markers' dictionary");
+  return fields;
+}
+
 void BoardSpec::Check() const {
-  RELIT_REQUIRE(squares_x >= 3 && squares_y >= 3, "board must have at least 3x3 squares, got ",
-                squares_x, "x", squares_y);
   RELIT_REQUIRE(squares_y % 2 == 1,
                 "board squares_y must be odd: OpenCV 4.6 changed the ChArUco layout for an even "
                 "number of rows, got ", squares_y);
-  RELIT_REQUIRE(square_length_m > 0 && square_length_m < 1, "board square_length_m must be in (0, 1) metres, got ",
-                square_length_m);
   RELIT_REQUIRE(marker_length_m > 0 && marker_length_m < square_length_m,
                 "board marker_length_m must be positive and smaller than square_length_m, got ",
                 marker_length_m);
-  DictionaryId(dictionary);
 }
 
 void ReadBoardSpec(OptionsReader& r, BoardSpec* board) {
-  r.ReadRange("squares_x", &board->squares_x, 3, 100);
-  r.ReadRange("squares_y", &board->squares_y, 3, 100);
-  r.ReadRange("square_length_m", &board->square_length_m, 1e-4, 1.0);
-  r.ReadRange("marker_length_m", &board->marker_length_m, 1e-4, 1.0);
-  r.Read("dictionary", &board->dictionary);
-  r.Finish();
+  ReadOptions(r, board);
   try {
-    board->Check();
+    CheckOptions(*board);
   } catch (const Error& e) {
     Fail(r.file(), ": board: ", e.what());
   }
 }
 
-int DictionaryId(const std::string& name) {
+namespace {
+
+const std::map<std::string, int>& DictionaryIds() {
   static const std::map<std::string, int> kIds = {
       {"DICT_4X4_50", cv::aruco::DICT_4X4_50},
       {"DICT_4X4_100", cv::aruco::DICT_4X4_100},
@@ -48,17 +53,27 @@ int DictionaryId(const std::string& name) {
       {"DICT_APRILTAG_36h10", cv::aruco::DICT_APRILTAG_36h10},
       {"DICT_APRILTAG_36h11", cv::aruco::DICT_APRILTAG_36h11},
   };
-  const auto it = kIds.find(name);
-  if (it == kIds.end()) {
-    std::string known;
-    for (const auto& [key, value] : kIds) known += (known.empty() ? "" : ", ") + key;
-    Fail("unknown board dictionary '", name, "' (known: ", known, ")");
+  return kIds;
+}
+
+}  // namespace
+
+std::vector<std::string> DictionaryNames() {
+  std::vector<std::string> names;
+  for (const auto& [name, id] : DictionaryIds()) names.push_back(name);
+  return names;
+}
+
+int DictionaryId(const std::string& name) {
+  const auto it = DictionaryIds().find(name);
+  if (it == DictionaryIds().end()) {
+    Fail("unknown board dictionary '", name, "' (known: ", internal::JoinChoices(DictionaryNames()), ")");
   }
   return it->second;
 }
 
 cv::Ptr<cv::aruco::CharucoBoard> MakeCharucoBoard(const BoardSpec& spec) {
-  spec.Check();
+  CheckOptions(spec);
   return cv::aruco::CharucoBoard::create(
       spec.squares_x, spec.squares_y, static_cast<float>(spec.square_length_m),
       static_cast<float>(spec.marker_length_m),

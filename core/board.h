@@ -16,7 +16,7 @@
 #include <opencv2/aruco/charuco.hpp>
 
 #include "core/camera.h"
-#include "core/options.h"
+#include "core/option_fields.h"
 
 namespace relit {
 
@@ -27,7 +27,8 @@ struct BoardSpec {
   double marker_length_m = 0.030;    // metres
   std::string dictionary = "DICT_APRILTAG_36h11";
 
-  void Check() const;
+  static const OptionFields<BoardSpec>& Fields();
+  void Check() const;  // across fields: squares_y odd, marker smaller than square; see CheckOptions
   double width_m() const { return squares_x * square_length_m; }
   double height_m() const { return squares_y * square_length_m; }
   int corner_count() const { return (squares_x - 1) * (squares_y - 1); }
@@ -39,6 +40,8 @@ void ReadBoardSpec(OptionsReader& reader, BoardSpec* board);
 
 // OpenCV predefined dictionary id for a name like "DICT_APRILTAG_36h11".
 int DictionaryId(const std::string& name);
+// The names DictionaryId knows.
+std::vector<std::string> DictionaryNames();
 
 cv::Ptr<cv::aruco::CharucoBoard> MakeCharucoBoard(const BoardSpec& spec);
 

@@ -39,13 +39,13 @@ TEST(Board, CornersLieOnTablePlane) {
 TEST(Board, RejectsEvenRowsAndBadSizes) {
   BoardSpec spec;
   spec.squares_y = 6;
-  EXPECT_THROW(spec.Check(), std::runtime_error);
+  EXPECT_THROW(CheckOptions(spec), std::runtime_error);
   spec = BoardSpec();
   spec.marker_length_m = spec.square_length_m;
-  EXPECT_THROW(spec.Check(), std::runtime_error);
+  EXPECT_THROW(CheckOptions(spec), std::runtime_error);
   spec = BoardSpec();
   spec.dictionary = "DICT_NOPE";
-  EXPECT_THROW(spec.Check(), std::runtime_error);
+  EXPECT_THROW(CheckOptions(spec), std::runtime_error);
 }
 
 TEST(Board, DrawsImageOfExpectedSize) {

@@ -115,6 +115,8 @@ spdlog::level::level_enum ParseLogLevel(const std::string& name) {
   Fail("unknown log level '", name, "' (use trace, debug, info, warn, error or off)");
 }
 
+std::vector<std::string> LogLevelNames() { return {"trace", "debug", "info", "warn", "error", "off"}; }
+
 namespace internal {
 
 bool LoggingInitialized() {

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <spdlog/spdlog.h>
 
@@ -41,6 +42,8 @@ void SetVerbosity(spdlog::level::level_enum level);
 
 // "trace", "debug", "info", "warn", "error" or "off"; relit::Error otherwise.
 spdlog::level::level_enum ParseLogLevel(const std::string& name);
+// The names ParseLogLevel knows, for option tables.
+std::vector<std::string> LogLevelNames();
 
 namespace internal {
 // True once InitLogging() has run.

@@ -1,6 +1,8 @@
 // Options from YAML files, mapped onto plain structs.
 //
-// Pattern: every component that takes options has
+// Stage options are described by field tables (core/option_fields.h), which
+// read through this reader. The hand-written pattern below is what relight's
+// structs still use (to be converted):
 //
 //   struct RenderOptions {
 //     int samples = 64;            // defaults live here, nowhere else

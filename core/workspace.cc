@@ -23,13 +23,7 @@ bool JsonBool(const json& object, const std::string& key, const std::string& whe
 }
 }  // namespace
 
-json ToJson(const BoardSpec& board) {
-  return {{"squares_x", board.squares_x},
-          {"squares_y", board.squares_y},
-          {"square_length_m", board.square_length_m},
-          {"marker_length_m", board.marker_length_m},
-          {"dictionary", board.dictionary}};
-}
+json ToJson(const BoardSpec& board) { return OptionsToJson(board); }
 
 BoardSpec BoardSpecFromJson(const json& j, const std::string& where) {
   BoardSpec board;
@@ -38,7 +32,7 @@ BoardSpec BoardSpecFromJson(const json& j, const std::string& where) {
   board.square_length_m = JsonNumber(j, "square_length_m", where);
   board.marker_length_m = JsonNumber(j, "marker_length_m", where);
   board.dictionary = JsonString(j, "dictionary", where);
-  board.Check();
+  CheckOptions(board);
   return board;
 }
 

@@ -6,6 +6,7 @@
 
 #include "core/board.h"
 #include "core/error.h"
+#include "pipeline/steps.h"
 
 namespace relit::pipeline {
 
@@ -29,63 +30,82 @@ const YAML::Node Section(const YAML::Node& root, const std::string& key) {
   return YAML::Node();
 }
 
-void ReadStringVector(OptionsReader& r, const std::string& key, std::vector<std::string>* v) {
-  r.Read(key, v);
-}
-
 }  // namespace
 
-void SlurmResources::Read(OptionsReader& r) {
-  r.Read("partition", &partition);
-  r.Read("account", &account);
-  r.ReadRange("cpus", &cpus, 1, 100000);
-  r.Read("memory", &memory);
-  r.ReadRange("gpus", &gpus, 0, 1024);
-  r.Read("time", &time);
-  ReadStringVector(r, "extra_args", &extra_args);
-  r.Finish();
+const OptionFields<SlurmResources>& SlurmResources::Fields() {
+  using S = SlurmResources;
+  static const auto fields = OptionFields<S>()
+                                 .Add("partition", &S::partition, "`--partition` (\"\" = the cluster's default)")
+                                 .Add("account", &S::account, "`--account` (\"\" = none)")
+                                 .Add("cpus", &S::cpus, 1, 100000, "`--cpus-per-task`")
+                                 .Add("memory", &S::memory, "`--mem`")
+                                 .Add("gpus", &S::gpus, 0, 1024, "`--gres gpu:N` when above 0")
+                                 .Add("time", &S::time, "`--time`")
+                                 .Add("extra_args", &S::extra_args, "appended to sbatch as given");
+  return fields;
 }
 
-nlohmann::json SlurmResources::ToJson() const {
-  return {{"partition", partition}, {"account", account}, {"cpus", cpus},   {"memory", memory},
-          {"gpus", gpus},           {"time", time},       {"extra_args", extra_args}};
+const OptionFields<SlurmOptions>& SlurmOptions::Fields() {
+  using S = SlurmOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("steps", &S::steps, StepKinds(), "step kinds submitted with sbatch; the others run on this host")
+          .Add("poll_s", &S::poll_s, 0.05, 3600.0, "squeue polling interval, seconds")
+          .Add("sbatch", &S::sbatch, "the sbatch command (e.g. a full path)")
+          .Add("squeue", &S::squeue, "the squeue command")
+          .Add("scontrol", &S::scontrol, "the scontrol command")
+          .Add("sacct", &S::sacct, "the sacct command")
+          .Add("scancel", &S::scancel, "the scancel command")
+          .Section("resources", &S::defaults);
+  return fields;
 }
 
 void SlurmOptions::Read(OptionsReader& r) {
-  ReadStringVector(r, "steps", &steps);
-  for (const std::string& kind : steps) {
-    RELIT_REQUIRE(kind == "capture" || kind == "calib" || kind == "reconstruct" || kind == "cues" ||
-                      kind == "plan" || kind == "train" || kind == "augment" || kind == "render" ||
-                      kind == "export" || kind == "eval" || kind == "report",
-                  r.Where("steps"), ": unknown step kind '", kind,
-                  "' (capture, calib, reconstruct, cues, plan, train, augment, render, export, eval, report)");
-  }
-  r.ReadRange("poll_s", &poll_s, 0.05, 3600.0);
-  r.Read("sbatch", &sbatch);
-  r.Read("squeue", &squeue);
-  r.Read("scontrol", &scontrol);
-  r.Read("sacct", &sacct);
-  r.Read("scancel", &scancel);
-  OptionsReader resources = r.Child("resources");
-  defaults.Read(resources);
-  // Per-kind resources start from the defaults and override some keys.
-  for (const char* kind : {"capture", "calib", "reconstruct", "cues", "plan", "train", "augment", "render",
-                           "export", "eval", "report"}) {
-    if (!r.Has(kind)) {
-      r.Ignore(kind);
-      continue;
-    }
+  for (const std::string& kind : StepKinds()) r.Ignore(kind);  // read below, over the defaults
+  ReadOptions(r, this);
+  for (const std::string& kind : StepKinds()) {
+    if (!r.Has(kind)) continue;
     OptionsReader child = r.Child(kind);
     SlurmResources resources_for_kind = defaults;
-    resources_for_kind.Read(child);
+    ReadOptions(child, &resources_for_kind);
     per_kind[kind] = resources_for_kind;
   }
-  r.Finish();
 }
 
 const SlurmResources& SlurmOptions::For(const std::string& kind) const {
   const auto it = per_kind.find(kind);
   return it == per_kind.end() ? defaults : it->second;
+}
+
+const OptionFields<PipelineInputs>& PipelineInputs::Fields() {
+  using S = PipelineInputs;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("view", &S::view, "required: phone V video (filmed without flash: the camera)")
+          .Add("light", &S::light, "required: phone L video (filmed with its flash on: the moving light)")
+          .Add("geometry", &S::geometry, "geometry-pass video or folder of photos (`relit-capture --geometry`)")
+          .Add("board_view_images", &S::board_view_images,
+               "folder of phone V board-clip frames (PNG/JPEG at the capture resolution): its lens is calibrated "
+               "once and kept fixed (docs/calib.md)")
+          .Add("board_light_images", &S::board_light_images, "the same for phone L")
+          .Add("proxy_mesh", &S::proxy_mesh,
+               "a proxy mesh (OBJ/PLY, board frame, metres) passed to `relit-reconstruct --mesh` instead of its own")
+          .Add("truth", &S::truth,
+               "`truth.json` of a synthetic capture (relit-synth): adds the `eval` step (held-out views x lights)");
+  return fields;
+}
+
+const OptionFields<RunSettings>& RunSettings::Fields() {
+  using S = RunSettings;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("jobs", &S::jobs, 1, 1024,
+               "steps run locally at once; only the partitions' training steps are independent and each uses "
+               "every core, so more than one job pays only with many cores (or GPUs)")
+          .Add("executor", &S::executor, {"local", "slurm"}, "where the steps run (`slurm:` below)")
+          .Add("export", &S::export_mode, {"auto", "on", "off"},
+               "whether the pipeline has the export step (auto: when `relit-relight --help` lists it)");
+  return fields;
 }
 
 const std::map<std::string, std::string>& StageExecutables() {
@@ -117,14 +137,7 @@ PipelineConfig PipelineConfig::FromString(const std::string& text, const std::st
   OptionsReader r(root, file);
 
   OptionsReader inputs = r.Child("inputs");
-  inputs.Read("view", &config.view);
-  inputs.Read("light", &config.light);
-  inputs.Read("geometry", &config.geometry);
-  inputs.Read("board_view_images", &config.board_view_images);
-  inputs.Read("board_light_images", &config.board_light_images);
-  inputs.Read("proxy_mesh", &config.proxy_mesh);
-  inputs.Read("truth", &config.truth);
-  inputs.Finish();
+  ReadOptions(inputs, static_cast<PipelineInputs*>(&config));
   RELIT_REQUIRE(!config.view.empty(), inputs.Where("view"),
                 ": inputs.view is required (phone V video, filmed without flash)");
   RELIT_REQUIRE(!config.light.empty(), inputs.Where("light"),
@@ -148,16 +161,7 @@ PipelineConfig PipelineConfig::FromString(const std::string& text, const std::st
   tools.Finish();
 
   OptionsReader run = r.Child("run");
-  run.ReadRange("jobs", &config.jobs, 1, 1024);
-  run.Read("executor", &config.executor);
-  RELIT_REQUIRE(config.executor == "local" || config.executor == "slurm", run.Where("executor"),
-                ": run.executor must be local or slurm, got '", config.executor, "'");
-  run.Read("export", &config.export_mode);
-  RELIT_REQUIRE(config.export_mode == "auto" || config.export_mode == "on" ||
-                    config.export_mode == "off",
-                run.Where("export"), ": run.export must be auto, on or off, got '",
-                config.export_mode, "'");
-  run.Finish();
+  ReadOptions(run, static_cast<RunSettings*>(&config));
 
   OptionsReader slurm = r.Child("slurm");
   config.slurm.Read(slurm);

@@ -21,7 +21,7 @@
 #include <nlohmann/json.hpp>
 #include <yaml-cpp/yaml.h>
 
-#include "core/options.h"
+#include "core/option_fields.h"
 
 namespace relit::pipeline {
 
@@ -35,9 +35,7 @@ struct SlurmResources {
   std::string time = "04:00:00";       // --time
   std::vector<std::string> extra_args;  // appended to sbatch as given
 
-  // Unset keys keep the values of `defaults`.
-  void Read(OptionsReader& reader);
-  nlohmann::json ToJson() const;
+  static const OptionFields<SlurmResources>& Fields();
 };
 
 struct SlurmOptions {
@@ -47,25 +45,35 @@ struct SlurmOptions {
   std::string sbatch = "sbatch", squeue = "squeue", scontrol = "scontrol", sacct = "sacct",
               scancel = "scancel";
   SlurmResources defaults;                          // slurm.resources
-  std::map<std::string, SlurmResources> per_kind;   // slurm.cues, slurm.train, ...
+  std::map<std::string, SlurmResources> per_kind;   // slurm.cues, slurm.train, ...: over `defaults`
 
+  static const OptionFields<SlurmOptions>& Fields();  // per_kind is read by Read
   void Read(OptionsReader& reader);
   const SlurmResources& For(const std::string& kind) const;
 };
 
-struct PipelineConfig {
+// inputs: (absolute paths once loaded; "" = not given)
+struct PipelineInputs {
+  std::string view, light, geometry, board_view_images, board_light_images, proxy_mesh, truth;
+  static const OptionFields<PipelineInputs>& Fields();
+};
+
+// run:
+struct RunSettings {
+  int jobs = 1;                      // local steps running at once
+  std::string executor = "local";    // local | slurm
+  std::string export_mode = "auto";  // YAML `export`: auto | on | off
+  static const OptionFields<RunSettings>& Fields();
+};
+
+// The sections' members are reached directly (config.view, config.jobs).
+struct PipelineConfig : PipelineInputs, RunSettings {
   std::string file;      // absolute path of pipeline.yaml
   std::string base_dir;  // its folder: relative paths are relative to it
-
-  // inputs: (absolute paths; "" = not given)
-  std::string view, light, geometry, board_view_images, board_light_images, proxy_mesh, truth;
 
   YAML::Node board;                          // board: (checked with ReadBoardSpec)
   std::map<std::string, std::string> tools;  // stage -> executable (absolute)
 
-  int jobs = 1;                   // run.jobs: local steps running at once
-  std::string executor = "local";  // run.executor
-  std::string export_mode = "auto";  // run.export: auto | on | off
   SlurmOptions slurm;
 
   // The stage sections exactly as written (Null when absent).

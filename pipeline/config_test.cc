@@ -62,10 +62,11 @@ TEST(PipelineConfigTest, WrongTypesNameLineAndKey) {
 
 TEST(PipelineConfigTest, BadValuesAndMissingInputs) {
   EXPECT_NE(ErrorOf("inputs: {light: l.mp4}\n").find("inputs.view is required"), std::string::npos);
-  EXPECT_NE(ErrorOf(std::string(kMinimal) + "run: {executor: pbs}\n").find("local or slurm"),
+  EXPECT_NE(ErrorOf(std::string(kMinimal) + "run: {executor: pbs}\n").find("'pbs' is not one of local, slurm"),
             std::string::npos);
-  EXPECT_NE(ErrorOf(std::string(kMinimal) + "slurm: {steps: [trian]}\n").find("unknown step kind 'trian'"),
-            std::string::npos);
+  const std::string kind = ErrorOf(std::string(kMinimal) + "slurm: {steps: [trian]}\n");
+  EXPECT_NE(kind.find("key 'slurm.steps': 'trian' is not one of capture, calib"), std::string::npos) << kind;
+  EXPECT_NE(kind.find("did you mean 'train'?"), std::string::npos) << kind;
   // The stage's own checks run too (here: capture needs exactly one of
   // target_frames and target_fps).
   const std::string e =
@@ -82,6 +83,18 @@ TEST(PipelineConfigTest, KeysRelitSetsItselfAreRejected) {
   EXPECT_NE(e.find("top-level board"), std::string::npos) << e;
   e = ErrorOf(std::string(kMinimal) + "reconstruct: {mesh: a.obj}\n");
   EXPECT_NE(e.find("inputs.proxy_mesh"), std::string::npos) << e;
+}
+
+// A pipeline.yaml written before proxy.photo / proxy.hull became sections
+// says which key moved where, with its line.
+TEST(PipelineConfigTest, MovedReconstructKeysNameTheirNewKey) {
+  std::string e = ErrorOf(std::string(kMinimal) + "reconstruct:\n  proxy:\n    photo_views: 6\n");
+  EXPECT_EQ(e, "/cap/pipeline.yaml:4:18 key 'reconstruct.proxy.photo_views': moved to 'reconstruct.proxy.photo.views'");
+  e = ErrorOf(std::string(kMinimal) + "reconstruct: {proxy: {method: dense, hull_points: false}}\n");
+  EXPECT_NE(e.find("key 'reconstruct.proxy.hull_points': moved to 'reconstruct.proxy.hull.enabled'"), std::string::npos)
+      << e;
+  EXPECT_EQ(ErrorOf(std::string(kMinimal) + "reconstruct: {proxy: {photo: {views: 6}, hull: {enabled: false}}}\n"),
+            "(no error)");
 }
 
 TEST(PipelineConfigTest, RelightSectionTopLevelKeysAreChecked) {

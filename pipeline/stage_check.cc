@@ -40,12 +40,12 @@ void CheckStageSections(const PipelineConfig& config, const YAML::Node& root) {
     RejectOwnedKey(section, "geometry", "inputs.geometry");
     RejectOwnedKey(section, "out", "the workspace (relit run --workspace W)");
     capture::CaptureOptions options;
-    options.Read(section);
+    ReadOptions(section, &options);
     options.view = config.view;
     options.light = config.light;
     options.out = "capture";
     try {
-      options.Check();
+      CheckOptions(options);
     } catch (const Error& e) {
       Fail(Prefix(config, "capture"), e.what());
     }
@@ -60,12 +60,12 @@ void CheckStageSections(const PipelineConfig& config, const YAML::Node& root) {
       RejectOwnedKey(intrinsics, "light_board_images", "inputs.board_light_images");
     }
     calib::CalibOptions options;
-    options.Read(section);
+    ReadOptions(section, &options);
     options.workspace = "W";
     OptionsReader board = reader.Child("board");
     ReadBoardSpec(board, &options.board);
     try {
-      options.Check();
+      CheckOptions(options);
     } catch (const Error& e) {
       Fail(Prefix(config, "calib"), e.what());
     }
@@ -75,10 +75,10 @@ void CheckStageSections(const PipelineConfig& config, const YAML::Node& root) {
     RejectOwnedKey(section, "workspace", "the workspace (relit run --workspace W)");
     RejectOwnedKey(section, "mesh", "inputs.proxy_mesh");
     reconstruct::ReconstructOptions options;
-    options.Read(section);
+    ReadOptions(section, &options);
     options.workspace = "W";
     try {
-      options.Check();
+      CheckOptions(options);
     } catch (const Error& e) {
       Fail(Prefix(config, "reconstruct"), e.what());
     }

@@ -151,7 +151,7 @@ cv::Mat SolveMultiScale(const cv::Mat& image, const cv::Mat& trimap, const cv::M
 
 cv::Mat SolveClosedFormMatte(const cv::Mat& image, const cv::Mat& trimap, const cv::Mat& prior,
                              const MattingOptions& options, MatteStats* stats) {
-  options.Check();
+  CheckOptions(options, "matting");
   RELIT_REQUIRE(image.type() == CV_32FC3, "reconstruct: matting needs a CV_32FC3 image");
   RELIT_REQUIRE(trimap.type() == CV_8U && trimap.size() == image.size(),
                 "reconstruct: the trimap must be CV_8U and the size of the image");

@@ -102,7 +102,8 @@ std::vector<int> Label(const Grid& grid, const std::vector<char>& mask, char val
 
 VoxelHull CarveDepthHull(const std::vector<Camera>& cameras, const std::vector<cv::Mat>& depths,
                          const std::vector<OrientedPoint>& points, const CropRegion& crop,
-                         const ProxyOptions& options, double voxel_m, const std::function<void()>& on_slice_done) {
+                         const DepthHullOptions& options, double floor_height_m, double voxel_m,
+                         const std::function<void()>& on_slice_done) {
   RELIT_REQUIRE(cameras.size() == depths.size(), "depth hull: ", cameras.size(), " cameras but ", depths.size(),
                 " depth maps");
   RELIT_REQUIRE(points.size() >= 10, "depth hull: needs the fused points to place its grid, got ", points.size());
@@ -119,10 +120,10 @@ VoxelHull CarveDepthHull(const std::vector<Camera>& cameras, const std::vector<c
     low[a] = Percentile(coords[a], 0.005);
     high[a] = Percentile(coords[a], 0.995);
   }
-  const double margin = std::max(0.02, options.hull_margin_fraction * (high - low).maxCoeff());
+  const double margin = std::max(0.02, options.margin_fraction * (high - low).maxCoeff());
   low -= Eigen::Vector3d::Constant(margin);
   high += Eigen::Vector3d::Constant(margin);
-  low.z() = options.min_height_m;
+  low.z() = floor_height_m;
   for (int a = 0; a < 2; ++a) {
     low[a] = std::max(low[a], crop.centre_xy[a] - crop.radius_m);
     high[a] = std::min(high[a], crop.centre_xy[a] + crop.radius_m);
@@ -149,14 +150,14 @@ VoxelHull CarveDepthHull(const std::vector<Camera>& cameras, const std::vector<c
       for (int i = 0; i < hull.size.x(); ++i) {
         const Eigen::Vector3d centre = hull.origin_m + hull.voxel_m * Eigen::Vector3d(i + 0.5, j + 0.5, k + 0.5);
         int free_views = 0;
-        for (size_t v = 0; v < cameras.size() && free_views < options.hull_min_free_views; ++v) {
+        for (size_t v = 0; v < cameras.size() && free_views < options.min_free_views; ++v) {
           const Eigen::Vector3d in_cam = cameras[v].cam_from_world() * centre;
           cv::Point pixel;
           if (!NearestPixel(cameras[v], in_cam, nearest[v].size(), &pixel)) continue;
           const float seen = nearest[v].at<float>(pixel);
-          if (seen > 0 && seen > in_cam.z() * (1 + options.hull_free_tolerance) + half_diagonal) ++free_views;
+          if (seen > 0 && seen > in_cam.z() * (1 + options.free_tolerance) + half_diagonal) ++free_views;
         }
-        carved[grid.Index(i, j, k)] = free_views >= options.hull_min_free_views ? 1 : 0;
+        carved[grid.Index(i, j, k)] = free_views >= options.min_free_views ? 1 : 0;
       }
     }
     if (on_slice_done) on_slice_done();
@@ -166,15 +167,15 @@ VoxelHull CarveDepthHull(const std::vector<Camera>& cameras, const std::vector<c
   // except where fused points come down to it (the feet): the bottom band
   // outside that contact region is carved. A band the object encloses (a
   // box's underside) stays a cavity and is filled again below.
-  const int band = static_cast<int>(std::ceil(options.hull_contact_height_m / hull.voxel_m));
+  const int band = static_cast<int>(std::ceil(options.contact_height_m / hull.voxel_m));
   if (band > 0) {
     cv::Mat contact(hull.size.y(), hull.size.x(), CV_8U, cv::Scalar(0));
     for (const OrientedPoint& p : points) {
-      if (p.position_m.z() >= options.min_height_m + options.hull_contact_height_m) continue;
+      if (p.position_m.z() >= floor_height_m + options.contact_height_m) continue;
       const Eigen::Vector3i c = hull.CellOf(p.position_m);
       if (c.x() >= 0 && c.y() >= 0 && c.x() < hull.size.x() && c.y() < hull.size.y()) contact.at<uchar>(c.y(), c.x()) = 1;
     }
-    const int radius = static_cast<int>(std::ceil(options.hull_contact_radius_m / hull.voxel_m));
+    const int radius = static_cast<int>(std::ceil(options.contact_radius_m / hull.voxel_m));
     if (radius > 0) {
       cv::dilate(contact, contact, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * radius + 1, 2 * radius + 1}));
     }

@@ -58,14 +58,15 @@ struct VoxelHull {
 };
 
 // Carves the grid around `points` (their robust bounding box, widened by
-// a margin, from min_height_m up) with `depths` (CV_32F, metres along the
-// optical axis, 0 = unknown, the table included) of `cameras`.
+// a margin, from floor_height_m (proxy.min_height_m) up) with `depths`
+// (CV_32F, metres along the optical axis, 0 = unknown, the table included)
+// of `cameras`.
 VoxelHull CarveDepthHull(const std::vector<Camera>& cameras, const std::vector<cv::Mat>& depths,
                          const std::vector<OrientedPoint>& points, const CropRegion& crop,
-                         const ProxyOptions& options, double voxel_m,
+                         const DepthHullOptions& options, double floor_height_m, double voxel_m,
                          const std::function<void()>& on_slice_done = {});
 
-// Oriented samples of the hull's surface (not its floor at min_height_m)
+// Oriented samples of the hull's surface (not its floor)
 // that lie farther than gap_m from every point in `points`.
 std::vector<OrientedPoint> HullSurfacePoints(const VoxelHull& hull, const std::vector<OrientedPoint>& points,
                                              double gap_m, int* surface_points);

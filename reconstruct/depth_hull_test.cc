@@ -115,12 +115,12 @@ std::vector<OrientedPoint> SidePoints(double z_low, double z_high, double min_no
 
 // Without the contact band: the cylinder's lower half has no fused points
 // here, so the band would carve its foot (tested on its own below).
-ProxyOptions HullOptions() {
-  ProxyOptions options;
-  options.min_height_m = 0.005;
-  options.hull_contact_height_m = 0;
+DepthHullOptions HullOptions() {
+  DepthHullOptions options;
+  options.contact_height_m = 0;
   return options;
 }
+constexpr double kFloor = 0.005;  // proxy.min_height_m
 
 CropRegion Crop() {
   CropRegion crop;
@@ -131,9 +131,9 @@ CropRegion Crop() {
 
 TEST(DepthHull, CarvesTheSpaceAroundAnUprightCylinderAndKeepsItsInside) {
   const Views views = RingOfViews();
-  const ProxyOptions options = HullOptions();
+  const DepthHullOptions options = HullOptions();
   constexpr double kVoxel = 0.0015;
-  const VoxelHull hull = CarveDepthHull(views.cameras, views.depths, UpperPoints(), Crop(), options, kVoxel);
+  const VoxelHull hull = CarveDepthHull(views.cameras, views.depths, UpperPoints(), Crop(), options, kFloor, kVoxel);
   ASSERT_GT(hull.size.prod(), 0);
   int inside = 0, inside_carved = 0, outside_far = 0, outside_far_kept = 0;
   for (int k = 0; k < hull.size.z(); ++k) {
@@ -160,9 +160,9 @@ TEST(DepthHull, CarvesTheSpaceAroundAnUprightCylinderAndKeepsItsInside) {
 
 TEST(DepthHull, SurfacePointsFillOnlyWhereNoFusedPointIs) {
   const Views views = RingOfViews();
-  const ProxyOptions options = HullOptions();
+  const DepthHullOptions options = HullOptions();
   const std::vector<OrientedPoint> fused = UpperPoints();
-  const VoxelHull hull = CarveDepthHull(views.cameras, views.depths, fused, Crop(), options, 0.0015);
+  const VoxelHull hull = CarveDepthHull(views.cameras, views.depths, fused, Crop(), options, kFloor, 0.0015);
   int surface = 0;
   const std::vector<OrientedPoint> added = HullSurfacePoints(hull, fused, 0.003, &surface);
   ASSERT_GT(added.size(), 500u);
@@ -189,13 +189,13 @@ TEST(DepthHull, OneWrongDepthMapDoesNotCarveTheObject) {
   Views views = RingOfViews();
   // A stereo failure that sees far through the middle of the object.
   views.depths[0].rowRange(110, 130).setTo(1.0f);
-  ProxyOptions options = HullOptions();
-  const VoxelHull hull = CarveDepthHull(views.cameras, views.depths, UpperPoints(), Crop(), options, 0.002);
+  DepthHullOptions options = HullOptions();
+  const VoxelHull hull = CarveDepthHull(views.cameras, views.depths, UpperPoints(), Crop(), options, kFloor, 0.002);
   EXPECT_TRUE(hull.Contains(Eigen::Vector3d(kAxis.x(), kAxis.y(), kHeight / 2)));
   EXPECT_TRUE(hull.Contains(Eigen::Vector3d(kAxis.x() + 0.02, kAxis.y(), 0.01)));
   // With one view enough to carve, the same failure cuts through it.
-  options.hull_min_free_views = 1;
-  const VoxelHull carved = CarveDepthHull(views.cameras, views.depths, UpperPoints(), Crop(), options, 0.002);
+  options.min_free_views = 1;
+  const VoxelHull carved = CarveDepthHull(views.cameras, views.depths, UpperPoints(), Crop(), options, kFloor, 0.002);
   int lost = 0;
   for (double z = 0.01; z < kHeight; z += 0.005) {
     lost += carved.Contains(Eigen::Vector3d(kAxis.x(), kAxis.y(), z)) ? 0 : 1;
@@ -205,24 +205,24 @@ TEST(DepthHull, OneWrongDepthMapDoesNotCarveTheObject) {
 
 TEST(DepthHull, TheBandUnderTheObjectKeepsTheContactRegionAndWhatTheObjectEncloses) {
   const Views views = RingOfViews();
-  ProxyOptions options = HullOptions();
-  options.hull_contact_height_m = 0.01;
-  options.hull_contact_radius_m = 0.005;
+  DepthHullOptions options = HullOptions();
+  options.contact_height_m = 0.01;
+  options.contact_radius_m = 0.005;
   const Eigen::Vector3d centre_low(kAxis.x(), kAxis.y(), 0.01);
   const Eigen::Vector3d minus_x_low(kAxis.x() - 0.025, kAxis.y(), 0.01), plus_x_low(kAxis.x() + 0.025, kAxis.y(), 0.01);
   // Points down to the table all around: the band inside is enclosed.
   std::vector<OrientedPoint> points = UpperPoints();
-  const std::vector<OrientedPoint> all_round = SidePoints(options.min_height_m, kHeight / 2, -1.0);
+  const std::vector<OrientedPoint> all_round = SidePoints(kFloor, kHeight / 2, -1.0);
   points.insert(points.end(), all_round.begin(), all_round.end());
-  const VoxelHull enclosed = CarveDepthHull(views.cameras, views.depths, points, Crop(), options, 0.0015);
+  const VoxelHull enclosed = CarveDepthHull(views.cameras, views.depths, points, Crop(), options, kFloor, 0.0015);
   EXPECT_TRUE(enclosed.Contains(centre_low));
   EXPECT_TRUE(enclosed.Contains(minus_x_low));
   EXPECT_TRUE(enclosed.Contains(plus_x_low));
   // Only the +x half reaches the table: the band under the -x half opens.
   points = UpperPoints();
-  const std::vector<OrientedPoint> half = SidePoints(options.min_height_m, kHeight / 2, 0.0);
+  const std::vector<OrientedPoint> half = SidePoints(kFloor, kHeight / 2, 0.0);
   points.insert(points.end(), half.begin(), half.end());
-  const VoxelHull open = CarveDepthHull(views.cameras, views.depths, points, Crop(), options, 0.0015);
+  const VoxelHull open = CarveDepthHull(views.cameras, views.depths, points, Crop(), options, kFloor, 0.0015);
   EXPECT_TRUE(open.Contains(plus_x_low));
   EXPECT_FALSE(open.Contains(minus_x_low));
   EXPECT_FALSE(open.Contains(centre_low));
@@ -230,26 +230,26 @@ TEST(DepthHull, TheBandUnderTheObjectKeepsTheContactRegionAndWhatTheObjectEnclos
 }
 
 TEST(DepthHull, WithoutDepthBehindTheObjectTheHullStaysOpen) {
-  const ProxyOptions options = HullOptions();
+  const DepthHullOptions options = HullOptions();
   const VoxelHull closed = CarveDepthHull(RingOfViews().cameras, RingOfViews().depths, UpperPoints(), Crop(),
-                                          options, 0.002);
+                                          options, kFloor, 0.002);
   EXPECT_LT(closed.open_border_fraction, 0.001);
   // Only the lower half of the object has depth (the table and the top are
   // black, say): nothing carves the space above it, so the hull reaches the
   // grid's top and the stage does not use it.
   const Views no_table = RingOfViews(false);
-  const VoxelHull open = CarveDepthHull(no_table.cameras, no_table.depths, UpperPoints(), Crop(), options, 0.002);
+  const VoxelHull open = CarveDepthHull(no_table.cameras, no_table.depths, UpperPoints(), Crop(), options, kFloor, 0.002);
   EXPECT_GT(open.open_border_fraction, 0.5);
-  EXPECT_GT(open.open_border_fraction, options.hull_max_open_border);
+  EXPECT_GT(open.open_border_fraction, options.max_open_border);
 }
 
 TEST(DepthHull, BadInputIsAnError) {
   const Views views = RingOfViews();
-  const ProxyOptions options = HullOptions();
+  const DepthHullOptions options = HullOptions();
   std::vector<cv::Mat> too_few(views.depths.begin(), views.depths.begin() + 3);
-  EXPECT_THROW(CarveDepthHull(views.cameras, too_few, UpperPoints(), Crop(), options, 0.002), Error);
-  EXPECT_THROW(CarveDepthHull(views.cameras, views.depths, {}, Crop(), options, 0.002), Error);
-  EXPECT_THROW(CarveDepthHull(views.cameras, views.depths, UpperPoints(), Crop(), options, 0.0), Error);
+  EXPECT_THROW(CarveDepthHull(views.cameras, too_few, UpperPoints(), Crop(), options, kFloor, 0.002), Error);
+  EXPECT_THROW(CarveDepthHull(views.cameras, views.depths, {}, Crop(), options, kFloor, 0.002), Error);
+  EXPECT_THROW(CarveDepthHull(views.cameras, views.depths, UpperPoints(), Crop(), options, kFloor, 0.0), Error);
 }
 
 }  // namespace

@@ -95,7 +95,7 @@ Eigen::Vector3d LocalNormal(const cv::Mat& depth, const Eigen::Matrix3d& k_inv, 
 }  // namespace
 
 cv::Mat RefineDepthMapPhotometric(const DepthView& ref, const cv::Mat& depth, const std::vector<const DepthView*>& others,
-                                  const SceneBox& box, const ProxyOptions& options, PhotoRefineStats* stats) {
+                                  const SceneBox& box, const PhotoRefineOptions& options, PhotoRefineStats* stats) {
   RELIT_REQUIRE(depth.type() == CV_32F && depth.rows == ref.gray.rows && depth.cols == ref.gray.cols,
                 "photometric refinement: the depth map of ", ref.name, " does not match its image");
   RELIT_REQUIRE(ref.gray.type() == CV_8U, "photometric refinement: ", ref.name, " is not an 8-bit grey image");
@@ -114,16 +114,16 @@ cv::Mat RefineDepthMapPhotometric(const DepthView& ref, const cv::Mat& depth, co
     neighbours.push_back({other, CameraMatrix(other->camera.intrinsics()), other_from_ref.rotation.toRotationMatrix(),
                           other_from_ref.translation});
   }
-  const int radius = options.photo_window_radius_px;
+  const int radius = options.window_radius_px;
   const int side = 2 * radius + 1;
   const int window = side * side;
-  const int steps = options.photo_search_steps;
+  const int steps = options.search_steps;
   const int hypotheses = 2 * steps + 1;
-  const double step_fraction = options.photo_search_fraction / steps;
+  const double step_fraction = options.search_fraction / steps;
   const int views = static_cast<int>(neighbours.size());
   const int best_of = std::max(1, (views + 1) / 2);
   std::vector<float> ref_window(window), weights(window), spatial_weights(window);
-  const double color_sigma = options.photo_color_sigma;
+  const double color_sigma = options.color_sigma;
   const float color_scale = color_sigma > 0 ? static_cast<float>(1.0 / (2 * color_sigma * color_sigma)) : 0.0f;
   for (int dy = -radius, q = 0; dy <= radius; ++dy) {
     for (int dx = -radius; dx <= radius; ++dx, ++q) {
@@ -144,7 +144,7 @@ cv::Mat RefineDepthMapPhotometric(const DepthView& ref, const cv::Mat& depth, co
       if ((world.array() < box.min.array()).any() || (world.array() > box.max.array()).any()) continue;
       ++local.depth_px;
 
-      // The reference window. With photo_color_sigma, pixels unlike the
+      // The reference window. With color_sigma, pixels unlike the
       // centre (likely another surface) weigh less (bilateral weights, as
       // COLMAP's PatchMatch): a window across a silhouette then follows the
       // centre's surface. ref_window holds w (r - mean_w) / |.|_w.
@@ -166,14 +166,14 @@ cv::Mat RefineDepthMapPhotometric(const DepthView& ref, const cv::Mat& depth, co
         ref_window[q] -= static_cast<float>(mean);
         norm2 += weights[q] * ref_window[q] * ref_window[q];
       }
-      if (std::sqrt(norm2 / weight_sum) < options.photo_min_texture) {
+      if (std::sqrt(norm2 / weight_sum) < options.min_texture) {
         ++local.flat_px;
         continue;
       }
       const float ref_scale = static_cast<float>(1.0 / std::sqrt(norm2));
       for (int q = 0; q < window; ++q) ref_window[q] *= ref_scale * weights[q];
 
-      const Eigen::Vector3d normal = LocalNormal(depth, k_inv, u, v, options.photo_window_radius_px);
+      const Eigen::Vector3d normal = LocalNormal(depth, k_inv, u, v, options.window_radius_px);
       const double plane_offset = normal.dot(point);  // n . X = offset (< 0: the plane faces the camera)
       std::fill(view_ok.begin(), view_ok.end(), true);
       for (int j = 0; j < views; ++j) {
@@ -224,7 +224,7 @@ cv::Mat RefineDepthMapPhotometric(const DepthView& ref, const cv::Mat& depth, co
         score[h] = sum / best_count;
       }
       const int best = static_cast<int>(std::max_element(score.begin(), score.end()) - score.begin());
-      if (best == 0 || best == hypotheses - 1 || score[best] < options.photo_min_score) {
+      if (best == 0 || best == hypotheses - 1 || score[best] < options.min_score) {
         refined.at<float>(v, u) = 0;
         ++local.dropped_px;
         continue;
@@ -253,18 +253,18 @@ std::vector<cv::Mat> RefineDepthMapsPhotometric(const std::vector<DepthView>& vi
   std::vector<Camera> cameras;
   for (const DepthView& view : views) cameras.push_back(view.camera);
   ProxyOptions selection = options;
-  selection.neighbours = options.photo_views;
-  selection.min_baseline_deg = std::min(options.min_baseline_deg, options.photo_max_baseline_deg);
+  selection.neighbours = options.photo.views;
+  selection.min_baseline_deg = std::min(options.min_baseline_deg, options.photo.max_baseline_deg);
   selection.target_baseline_deg = std::clamp(options.target_baseline_deg, selection.min_baseline_deg,
-                                             options.photo_max_baseline_deg);
-  selection.max_baseline_deg = options.photo_max_baseline_deg;
+                                             options.photo.max_baseline_deg);
+  selection.max_baseline_deg = options.photo.max_baseline_deg;
   const std::vector<std::vector<int>> neighbours = SelectStereoNeighbours(cameras, centre, selection);
   std::vector<cv::Mat> refined(views.size());
   std::vector<PhotoRefineStats> frame_stats(views.size());
   tbb::parallel_for(size_t(0), views.size(), [&](size_t i) {
     std::vector<const DepthView*> others;
     for (const int j : neighbours[i]) others.push_back(&views[j]);
-    refined[i] = RefineDepthMapPhotometric(views[i], depths[i], others, box, options, &frame_stats[i]);
+    refined[i] = RefineDepthMapPhotometric(views[i], depths[i], others, box, options.photo, &frame_stats[i]);
     if (on_frame_done) on_frame_done();
   });
   *stats = PhotoRefineStats{};

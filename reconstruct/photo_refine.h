@@ -2,7 +2,7 @@
 // path). SGBM matches one rectified pair at a time, with a fronto-parallel
 // window and a quadratic sub-pixel fit: on the dark, flash-lit objects its
 // depths scatter by several millimetres. Here every depth pixel is searched
-// again, within +/- options.photo_search_fraction of its depth, for the
+// again, within +/- proxy.photo.search_fraction of its depth, for the
 // plane (through the pixel's point, oriented by the depth map's own local
 // normal) whose window agrees best with several nearby frames at once
 // (zero-mean normalised cross-correlation through the plane-induced
@@ -39,10 +39,10 @@ struct PhotoRefineStats {
 // 0 = none). `others` are the photometric neighbours; only pixels whose
 // point lies in `box` are touched (the table is left as it is).
 cv::Mat RefineDepthMapPhotometric(const DepthView& ref, const cv::Mat& depth, const std::vector<const DepthView*>& others,
-                                  const SceneBox& box, const ProxyOptions& options, PhotoRefineStats* stats);
+                                  const SceneBox& box, const PhotoRefineOptions& options, PhotoRefineStats* stats);
 
 // All frames (thread-parallel): neighbours from SelectStereoNeighbours with
-// the photometric baseline range. `on_frame_done` may be empty.
+// the photometric baseline range (options.photo). `on_frame_done` may be empty.
 std::vector<cv::Mat> RefineDepthMapsPhotometric(const std::vector<DepthView>& views, const std::vector<cv::Mat>& depths,
                                                 const Eigen::Vector3d& centre, const SceneBox& box,
                                                 const ProxyOptions& options, PhotoRefineStats* stats,

@@ -159,8 +159,8 @@ TEST(PhotoRefine, PullsNoisyDepthsOntoTheSurface) {
   // error is 0.05 %: the plane's own bias on a curved surface; windows
   // across the silhouette, which hold table, add the rest.
   for (const double color_sigma : {0.0, 20.0}) {
-    ProxyOptions options;
-    options.photo_color_sigma = color_sigma;
+    PhotoRefineOptions options;
+    options.color_sigma = color_sigma;
     PhotoRefineStats stats;
     const cv::Mat refined = RefineDepthMapPhotometric(ref.view, noisy, Others(scene, 2), scene.box, options, &stats);
     const Errors after = Compare(refined, truth, noisy);
@@ -186,7 +186,7 @@ TEST(PhotoRefine, DropsOutliersBeyondTheSearchAndLeavesTheTable) {
       }
     }
   }
-  ProxyOptions options;
+  PhotoRefineOptions options;
   PhotoRefineStats stats;
   const cv::Mat refined = RefineDepthMapPhotometric(ref.view, input, Others(scene, 1), scene.box, options, &stats);
   for (int v = 0; v < input.rows; ++v) {
@@ -210,7 +210,7 @@ TEST(PhotoRefine, KeepsDepthsOfTexturelessSurfaces) {
   const RenderedView& ref = scene.views[2];
   const cv::Mat sphere = SphereDepth(ref, scene.box);
   cv::Mat input = sphere * 1.004;
-  ProxyOptions options;
+  PhotoRefineOptions options;
   PhotoRefineStats stats;
   const cv::Mat refined = RefineDepthMapPhotometric(ref.view, input, Others(scene, 2), scene.box, options, &stats);
   // Interior pixels of a uniform sphere have no contrast: kept, unchanged.
@@ -226,7 +226,7 @@ TEST(PhotoRefine, KeepsDepthsOfTexturelessSurfaces) {
 
 TEST(PhotoRefine, RejectsAMismatchedDepthMap) {
   const Scene scene = MakeScene();
-  ProxyOptions options;
+  PhotoRefineOptions options;
   PhotoRefineStats stats;
   const cv::Mat wrong(10, 10, CV_32F, cv::Scalar(0.3));
   EXPECT_THROW(RefineDepthMapPhotometric(scene.views[0].view, wrong, Others(scene, 0), scene.box, options, &stats),

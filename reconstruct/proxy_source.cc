@@ -117,7 +117,7 @@ DensePoints DenseDepthPoints(const fs::path& workspace, const CamerasFile& camer
   // Dense method only: the advancing front of the sparse method over these
   // points (no COLMAP model) came out worse and unstable on refined points
   // (tiny test 2.5-6.2 % of the diagonal, against 1.5-2.2 % without).
-  if (options.photo_refine && options.method == "dense") {
+  if (options.photo.enabled && options.method == "dense") {
     auto timer = record->Time("proxy_photo_refine");
     Progress progress("photometric refinement", static_cast<int64_t>(n));
     PhotoRefineStats photo;
@@ -193,16 +193,16 @@ void AddHullPoints(const std::vector<Camera>& cameras, const std::vector<cv::Mat
                    const CropRegion& crop, const ProxyOptions& options, double spacing, const fs::path& work_dir,
                    RunRecord* record, nlohmann::json* report, std::vector<OrientedPoint>* points) {
   auto timer = record->Time("proxy_depth_hull");
-  const double voxel = options.hull_voxel_m > 0 ? options.hull_voxel_m : spacing;
-  const VoxelHull hull = CarveDepthHull(cameras, consistent_depths, *points, crop, options, voxel);
-  if (hull.open_border_fraction > options.hull_max_open_border) {
+  const double voxel = options.hull.voxel_m > 0 ? options.hull.voxel_m : spacing;
+  const VoxelHull hull = CarveDepthHull(cameras, consistent_depths, *points, crop, options.hull, options.min_height_m, voxel);
+  if (hull.open_border_fraction > options.hull.max_open_border) {
     // Not carved all around (a background without depth, too few views):
     // the hull's surface would be the grid's, not the object's.
     (*report)["depth_hull"] = {{"skipped", true}, {"open_border_fraction", hull.open_border_fraction}};
     spdlog::warn("depth hull: skipped, the depth maps leave {:.1f}% of the grid's sides and top uncarved "
-                 "(proxy.hull_max_open_border {:.1f}%); the background behind the object has too little depth "
+                 "(proxy.hull.max_open_border {:.1f}%); the background behind the object has too little depth "
                  "(or too few frames see past it)",
-                 100 * hull.open_border_fraction, 100 * options.hull_max_open_border);
+                 100 * hull.open_border_fraction, 100 * options.hull.max_open_border);
     return;
   }
   DepthHullReport hull_report;
@@ -212,7 +212,7 @@ void AddHullPoints(const std::vector<Camera>& cameras, const std::vector<cv::Mat
   hull_report.open_border_fraction = hull.open_border_fraction;
   hull_report.occupied_voxels = static_cast<int>(std::count(hull.occupied.begin(), hull.occupied.end(), 1));
   const std::vector<OrientedPoint> added =
-      HullSurfacePoints(hull, *points, options.hull_point_gap * spacing, &hull_report.surface_points);
+      HullSurfacePoints(hull, *points, options.hull.point_gap * spacing, &hull_report.surface_points);
   hull_report.added_points = static_cast<int>(added.size());
   WriteOrientedPly((work_dir / "hull_points.ply").string(), added);
   points->insert(points->end(), added.begin(), added.end());
@@ -221,7 +221,7 @@ void AddHullPoints(const std::vector<Camera>& cameras, const std::vector<cv::Mat
   spdlog::info("depth hull: {}x{}x{} voxels of {:.2f} mm, {} occupied; {} of its {} surface samples added "
                "where no point is within {:.1f} mm",
                hull.size.x(), hull.size.y(), hull.size.z(), 1e3 * hull.voxel_m, hull_report.occupied_voxels,
-               hull_report.added_points, hull_report.surface_points, 1e3 * options.hull_point_gap * spacing);
+               hull_report.added_points, hull_report.surface_points, 1e3 * options.hull.point_gap * spacing);
 }
 
 }  // namespace
@@ -288,7 +288,7 @@ render::TriangleMesh BuildProxyFromImages(const fs::path& workspace, const Camer
   const bool have_model = fs::exists(workspace / "calib" / "model" / "points3D.txt");
   DensePoints dense;
   if (options.method == "dense" || !have_model) {
-    dense = DenseDepthPoints(workspace, cameras, frames, crop, options, evidence || options.hull_points, record,
+    dense = DenseDepthPoints(workspace, cameras, frames, crop, options, evidence || options.hull.enabled, record,
                              report);
   }
   const double spacing = options.point_spacing_m > 0 ? options.point_spacing_m : 1.5 * dense.pixel_footprint_m;
@@ -316,7 +316,7 @@ render::TriangleMesh BuildProxyFromImages(const fs::path& workspace, const Camer
     }
     (*report)["oriented_points"] = oriented.size();
     (*report)["point_spacing_m"] = spacing;
-    if (options.hull_points) {
+    if (options.hull.enabled) {
       AddHullPoints(camera_list, consistent, crop, options, spacing, work_dir, record, report, &oriented);
     }
     const std::string points_ply = (work_dir / "fused_points.ply").string();
@@ -338,7 +338,7 @@ render::TriangleMesh BuildProxyFromImages(const fs::path& workspace, const Camer
     }
     // Over depth points the hull closes what the stereo missed here too
     // (the advancing front otherwise breaks up around those gaps).
-    if (options.hull_points && !consistent.empty() && cleaned.size() >= 10) {
+    if (options.hull.enabled && !consistent.empty() && cleaned.size() >= 10) {
       AddHullPoints(camera_list, consistent, crop, options, spacing, work_dir, record, report, &cleaned);
     }
     (*report)["sparse_points"] = cleaned.size();

@@ -44,7 +44,7 @@ std::string FileStem(const std::string& frame_name) {
 }  // namespace
 
 ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
-  options.Check();
+  CheckOptions(options);
   const auto start = std::chrono::steady_clock::now();
   const spdlog::level::level_enum level = ParseLogLevel(options.log_level);
   const fs::path workspace(options.workspace);
@@ -61,7 +61,7 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
   const fs::path root = out.path();
   LogFileScope log_scope((root / "reconstruct.log").string(), level);
   RunRecord record("relit-reconstruct");
-  record.SetOptions(options.ToJson());
+  record.SetOptions(OptionsToJson(options));
   record.AddInput("cameras", cameras_path);
   nlohmann::json report;
   ReconstructSummary summary;
@@ -253,7 +253,7 @@ int RunReconstruct(int argc, char** argv) {
   ReconstructOptions options;
   if (!config.empty()) {
     OptionsReader reader = OptionsReader::FromFile(config);
-    options.Read(reader);
+    ReadOptions(reader, &options);
   }
   if (!workspace.empty()) options.workspace = workspace;
   if (!mesh.empty()) {
@@ -264,7 +264,7 @@ int RunReconstruct(int argc, char** argv) {
   options.force = force;
   if (!log_level.empty()) options.log_level = log_level;
   SetVerbosity(ParseLogLevel(options.log_level));
-  options.Check();
+  CheckOptions(options);
   RunReconstructImpl(options);
   return 0;
 }

@@ -1,333 +1,237 @@
 #include "reconstruct/reconstruct_options.h"
 
 #include "core/error.h"
+#include "core/log.h"
 
 namespace relit::reconstruct {
 
-void ProxyOptions::Read(OptionsReader& r) {
-  r.Read("method", &method);
-  r.ReadRange("max_frames", &max_frames, 0, 1000000);
-  r.ReadRange("neighbours", &neighbours, 1, 8);
-  r.ReadRange("min_baseline_deg", &min_baseline_deg, 0.1, 90.0);
-  r.ReadRange("target_baseline_deg", &target_baseline_deg, 0.1, 90.0);
-  r.ReadRange("max_baseline_deg", &max_baseline_deg, 0.1, 90.0);
-  r.ReadRange("block_size_px", &block_size_px, 1, 31);
-  r.ReadRange("uniqueness_ratio", &uniqueness_ratio, 0, 100);
-  r.ReadRange("speckle_window_px", &speckle_window_px, 0, 10000);
-  r.ReadRange("max_left_right_difference_px", &max_left_right_difference_px, 0.0, 100.0);
-  r.Read("photo_refine", &photo_refine);
-  r.ReadRange("photo_views", &photo_views, 1, 16);
-  r.ReadRange("photo_max_baseline_deg", &photo_max_baseline_deg, 0.5, 90.0);
-  r.ReadRange("photo_window_radius_px", &photo_window_radius_px, 1, 10);
-  r.ReadRange("photo_search_fraction", &photo_search_fraction, 1e-4, 0.5);
-  r.ReadRange("photo_search_steps", &photo_search_steps, 1, 100);
-  r.ReadRange("photo_min_texture", &photo_min_texture, 0.0, 255.0);
-  r.ReadRange("photo_min_score", &photo_min_score, -1.0, 1.0);
-  r.ReadRange("photo_color_sigma", &photo_color_sigma, 0.0, 1000.0);
-  r.ReadRange("min_consistent_views", &min_consistent_views, 0, 100);
-  r.ReadRange("min_consistent_fraction", &min_consistent_fraction, 0.0, 1.0);
-  r.ReadRange("depth_tolerance", &depth_tolerance, 1e-5, 1.0);
-  r.ReadRange("min_height_m", &min_height_m, 0.0, 1.0);
-  r.ReadRange("min_cluster_fraction", &min_cluster_fraction, 0.0, 1.0);
-  r.ReadRange("point_spacing_m", &point_spacing_m, 0.0, 1.0);
-  r.ReadRange("normal_neighbours", &normal_neighbours, 4, 200);
-  r.Read("hull_points", &hull_points);
-  r.ReadRange("hull_voxel_m", &hull_voxel_m, 0.0, 1.0);
-  r.ReadRange("hull_min_free_views", &hull_min_free_views, 1, 1000);
-  r.ReadRange("hull_free_tolerance", &hull_free_tolerance, 0.0, 1.0);
-  r.ReadRange("hull_margin_fraction", &hull_margin_fraction, 0.0, 10.0);
-  r.ReadRange("hull_point_gap", &hull_point_gap, 0.0, 100.0);
-  r.ReadRange("hull_contact_height_m", &hull_contact_height_m, 0.0, 1.0);
-  r.ReadRange("hull_contact_radius_m", &hull_contact_radius_m, 0.0, 1.0);
-  r.ReadRange("hull_max_open_border", &hull_max_open_border, 0.0, 1.0);
-  r.ReadRange("poisson_depth", &poisson_depth, 5, 14);
-  r.ReadRange("poisson_trim", &poisson_trim, 0.0, 20.0);
-  r.Read("colmap", &colmap);
-  r.ReadRange("min_points", &min_points, 10, 100000000);
-  r.Read("sparse_fallback", &sparse_fallback);
-  r.ReadRange("advancing_front_radius_ratio", &advancing_front_radius_ratio, 1.0, 1000.0);
-  r.ReadRange("advancing_front_beta", &advancing_front_beta, 0.01, 3.14);
-  r.ReadRange("threads", &threads, 0, 1024);
-  r.Finish();
+const OptionFields<PhotoRefineOptions>& PhotoRefineOptions::Fields() {
+  using S = PhotoRefineOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("enabled", &S::enabled, "refine each stereo depth map photometrically across frames")
+          .Add("views", &S::views, 1, 16, "frames compared with each depth map (the better half votes)")
+          .Add("max_baseline_deg", &S::max_baseline_deg, 0.5, 90.0, "widest triangulation angle of those frames")
+          .Add("window_radius_px", &S::window_radius_px, 1, 10, "ZNCC window radius r: (2r+1)² pixels")
+          .Add("search_fraction", &S::search_fraction, 1e-4, 0.5, "depth searched within +/- this fraction")
+          .Add("search_steps", &S::search_steps, 1, 100, "planes on each side of the stereo depth")
+          .Add("min_texture", &S::min_texture, 0.0, 255.0,
+               "window contrast (grey levels) below this: the pixel keeps its stereo depth")
+          .Add("min_score", &S::min_score, -1.0, 1.0, "best ZNCC below this: the pixel is dropped")
+          .Add("color_sigma", &S::color_sigma, 0.0, 1000.0,
+               "bilateral weight of window pixels by likeness to the centre, grey levels (0 = plain ZNCC)");
+  return fields;
+}
+
+const OptionFields<DepthHullOptions>& DepthHullOptions::Fields() {
+  using S = DepthHullOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("enabled", &S::enabled, "add samples of the depth-map hull (space carving) to Poisson's input")
+          .Add("voxel_m", &S::voxel_m, 0.0, 1.0, "voxel side, metres (0 = the point spacing)")
+          .Add("min_free_views", &S::min_free_views, 1, 1000, "depth maps that must see through a voxel to carve it")
+          .Add("free_tolerance", &S::free_tolerance, 0.0, 1.0, "seeing through: beyond the voxel by this fraction of its depth")
+          .Add("margin_fraction", &S::margin_fraction, 0.0, 10.0,
+               "grid: the fused points' bounds widened by this fraction of their extent (at least 2 cm)")
+          .Add("point_gap", &S::point_gap, 0.0, 100.0,
+               "hull samples farther than this x the point spacing from every fused point are added")
+          .Add("contact_height_m", &S::contact_height_m, 0.0, 1.0,
+               "band above proxy.min_height_m where the hull keeps only what is near low fused points (0 = keep)")
+          .Add("contact_radius_m", &S::contact_radius_m, 0.0, 1.0, "horizontal reach of that rule, metres")
+          .Add("max_open_border", &S::max_open_border, 0.0, 1.0,
+               "a hull reaching more than this share of the grid's sides and top is not used");
+  return fields;
+}
+
+const OptionFields<ProxyOptions>& ProxyOptions::Fields() {
+  using S = ProxyOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("method", &S::method, {"dense", "sparse", "mesh"},
+               "dense stereo + Poisson, sparse COLMAP points + advancing front, or the given mesh (`--proxy-method`)")
+          .Add("max_frames", &S::max_frames, 0, 1000000, "frames used for depth, 0 or >= 3 (0 = all; else evenly spaced)")
+          .Add("neighbours", &S::neighbours, 1, 8, "stereo neighbours of each reference frame")
+          .Add("min_baseline_deg", &S::min_baseline_deg, 0.1, 90.0, "smallest triangulation angle of a stereo pair")
+          .Add("target_baseline_deg", &S::target_baseline_deg, 0.1, 90.0, "preferred angle, between min and max")
+          .Add("max_baseline_deg", &S::max_baseline_deg, 0.1, 90.0, "largest angle")
+          .Add("block_size_px", &S::block_size_px, 1, 31, "StereoSGBM block, odd (P1/P2 = 8/32 x channels x block²)")
+          .Add("uniqueness_ratio", &S::uniqueness_ratio, 0, 100, "StereoSGBM uniqueness ratio, percent")
+          .Add("speckle_window_px", &S::speckle_window_px, 0, 10000, "StereoSGBM speckle filter window")
+          .Add("max_left_right_difference_px", &S::max_left_right_difference_px, 0.0, 100.0,
+               "left-right consistency of the disparities")
+          .Section("photo", &S::photo)
+          .Add("min_consistent_views", &S::min_consistent_views, 0, 100,
+               "other frames that must see a depth pixel's point at the same depth")
+          .Add("min_consistent_fraction", &S::min_consistent_fraction, 0.0, 1.0,
+               "... and this share of the other frames with a depth there")
+          .Add("depth_tolerance", &S::depth_tolerance, 1e-5, 1.0, "same depth: relative difference below this")
+          .Add("min_height_m", &S::min_height_m, 0.0, 1.0, "depth points at or below this height are the board/table")
+          .Add("min_cluster_fraction", &S::min_cluster_fraction, 0.0, 1.0,
+               "point clusters smaller than this x the largest are dropped (board edges, table)")
+          .Add("point_spacing_m", &S::point_spacing_m, 0.0, 1.0,
+               "grid of the fused points (0 = 1.5 x the median pixel footprint)")
+          .Add("normal_neighbours", &S::normal_neighbours, 4, 200, "CGAL jet normal fit neighbours")
+          .Section("hull", &S::hull)
+          .Add("poisson_depth", &S::poisson_depth, 5, 14, "screened Poisson octree depth")
+          .Add("poisson_trim", &S::poisson_trim, 0.0, 20.0, "Poisson density trim (drops surface few points support)")
+          .Add("colmap", &S::colmap, "the COLMAP executable (poisson_mesher)")
+          .Add("min_points", &S::min_points, 10, 100000000, "fewer fused points: sparse fallback (warning) or error")
+          .Add("sparse_fallback", &S::sparse_fallback, "fall back to the sparse path when dense finds too few points")
+          .Add("advancing_front_radius_ratio", &S::advancing_front_radius_ratio, 1.0, 1000.0,
+               "CGAL advancing front radius_ratio_bound (sparse)")
+          .Add("advancing_front_beta", &S::advancing_front_beta, 0.01, 3.14, "CGAL advancing front beta, radians")
+          .Add("threads", &S::threads, 0, 1024,
+               "0 = all cores (Poisson runs on one thread unless set: COLMAP's OpenMP threads spin on a loaded machine)")
+          .Moved("photo_refine", "photo.enabled")
+          .Moved("photo_views", "photo.views")
+          .Moved("photo_max_baseline_deg", "photo.max_baseline_deg")
+          .Moved("photo_window_radius_px", "photo.window_radius_px")
+          .Moved("photo_search_fraction", "photo.search_fraction")
+          .Moved("photo_search_steps", "photo.search_steps")
+          .Moved("photo_min_texture", "photo.min_texture")
+          .Moved("photo_min_score", "photo.min_score")
+          .Moved("photo_color_sigma", "photo.color_sigma")
+          .Moved("hull_points", "hull.enabled")
+          .Moved("hull_voxel_m", "hull.voxel_m")
+          .Moved("hull_min_free_views", "hull.min_free_views")
+          .Moved("hull_free_tolerance", "hull.free_tolerance")
+          .Moved("hull_margin_fraction", "hull.margin_fraction")
+          .Moved("hull_point_gap", "hull.point_gap")
+          .Moved("hull_contact_height_m", "hull.contact_height_m")
+          .Moved("hull_contact_radius_m", "hull.contact_radius_m")
+          .Moved("hull_max_open_border", "hull.max_open_border");
+  return fields;
 }
 
 void ProxyOptions::Check() const {
-  RELIT_REQUIRE(method == "dense" || method == "sparse" || method == "mesh",
-                "proxy.method must be dense, sparse or mesh, got '", method, "'");
-  RELIT_REQUIRE(max_frames == 0 || max_frames >= 3, "proxy.max_frames must be 0 (all) or >= 3, got ", max_frames);
-  RELIT_REQUIRE(neighbours >= 1, "proxy.neighbours must be >= 1");
-  RELIT_REQUIRE(min_baseline_deg > 0 && min_baseline_deg <= target_baseline_deg &&
-                    target_baseline_deg <= max_baseline_deg,
-                "proxy: need 0 < min_baseline_deg <= target_baseline_deg <= max_baseline_deg, got ",
-                min_baseline_deg, ", ", target_baseline_deg, ", ", max_baseline_deg);
-  RELIT_REQUIRE(block_size_px >= 1 && block_size_px % 2 == 1, "proxy.block_size_px must be odd, got ",
-                block_size_px);
-  RELIT_REQUIRE(depth_tolerance > 0, "proxy.depth_tolerance must be > 0");
-  RELIT_REQUIRE(min_consistent_views >= 0, "proxy.min_consistent_views must be >= 0");
-  RELIT_REQUIRE(min_consistent_fraction >= 0 && min_consistent_fraction <= 1,
-                "proxy.min_consistent_fraction must be in [0, 1], got ", min_consistent_fraction);
-  RELIT_REQUIRE(!colmap.empty(), "proxy.colmap (the COLMAP executable) must not be empty");
-  RELIT_REQUIRE(poisson_depth >= 5, "proxy.poisson_depth must be >= 5");
-  RELIT_REQUIRE(threads >= 0, "proxy.threads must be >= 0");
+  RELIT_REQUIRE(max_frames == 0 || max_frames >= 3, "max_frames must be 0 (all) or >= 3, got ", max_frames);
+  RELIT_REQUIRE(min_baseline_deg <= target_baseline_deg && target_baseline_deg <= max_baseline_deg,
+                "need min_baseline_deg <= target_baseline_deg <= max_baseline_deg, got ", min_baseline_deg, ", ",
+                target_baseline_deg, ", ", max_baseline_deg);
+  RELIT_REQUIRE(block_size_px % 2 == 1, "block_size_px must be odd, got ", block_size_px);
+  RELIT_REQUIRE(!colmap.empty(), "colmap (the COLMAP executable) must not be empty");
 }
 
-nlohmann::json ProxyOptions::ToJson() const {
-  return {{"method", method},
-          {"max_frames", max_frames},
-          {"neighbours", neighbours},
-          {"min_baseline_deg", min_baseline_deg},
-          {"target_baseline_deg", target_baseline_deg},
-          {"max_baseline_deg", max_baseline_deg},
-          {"block_size_px", block_size_px},
-          {"uniqueness_ratio", uniqueness_ratio},
-          {"speckle_window_px", speckle_window_px},
-          {"max_left_right_difference_px", max_left_right_difference_px},
-          {"photo_refine", photo_refine},
-          {"photo_views", photo_views},
-          {"photo_max_baseline_deg", photo_max_baseline_deg},
-          {"photo_window_radius_px", photo_window_radius_px},
-          {"photo_search_fraction", photo_search_fraction},
-          {"photo_search_steps", photo_search_steps},
-          {"photo_min_texture", photo_min_texture},
-          {"photo_min_score", photo_min_score},
-          {"photo_color_sigma", photo_color_sigma},
-          {"min_consistent_views", min_consistent_views},
-          {"min_consistent_fraction", min_consistent_fraction},
-          {"depth_tolerance", depth_tolerance},
-          {"min_height_m", min_height_m},
-          {"min_cluster_fraction", min_cluster_fraction},
-          {"point_spacing_m", point_spacing_m},
-          {"normal_neighbours", normal_neighbours},
-          {"hull_points", hull_points},
-          {"hull_voxel_m", hull_voxel_m},
-          {"hull_min_free_views", hull_min_free_views},
-          {"hull_free_tolerance", hull_free_tolerance},
-          {"hull_margin_fraction", hull_margin_fraction},
-          {"hull_point_gap", hull_point_gap},
-          {"hull_contact_height_m", hull_contact_height_m},
-          {"hull_contact_radius_m", hull_contact_radius_m},
-          {"hull_max_open_border", hull_max_open_border},
-          {"poisson_depth", poisson_depth},
-          {"poisson_trim", poisson_trim},
-          {"colmap", colmap},
-          {"min_points", min_points},
-          {"sparse_fallback", sparse_fallback},
-          {"advancing_front_radius_ratio", advancing_front_radius_ratio},
-          {"advancing_front_beta", advancing_front_beta},
-          {"threads", threads}};
+const OptionFields<CleanupOptions>& CleanupOptions::Fields() {
+  using S = CleanupOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("crop_margin_m", &S::crop_margin_m, 0.0, 1.0, "keep faces above the board plane by this much")
+          .Add("crop_radius_m", &S::crop_radius_m, 0.0, 100.0,
+               "... and within this horizontal distance of the object centre (0 = automatic)")
+          .Add("crop_radius_scale", &S::crop_radius_scale, 0.1, 100.0,
+               "automatic radius: this x the spread of where the phones' optical axes meet the board (>= 0.1 m)")
+          .Add("min_component_fraction", &S::min_component_fraction, 0.0, 1.0,
+               "components with less area than this x the largest are dropped")
+          .Add("repair_non_manifold", &S::repair_non_manifold,
+               "repair non-manifold vertices/edges of an input mesh (false: an error)")
+          .Add("target_faces", &S::target_faces, 100, 10000000, "faces after remeshing and decimation")
+          .Add("remesh_iterations", &S::remesh_iterations, 0, 100, "isotropic remeshing iterations")
+          .Add("fair_holes", &S::fair_holes, "smooth fill of holes (else flat)")
+          .Add("cut_small_handles", &S::cut_small_handles,
+               "cut and cap loops of three edges that are not triangles (tiny tunnels)")
+          .Add("cut_off_fraction", &S::cut_off_fraction, 0.0, 0.5,
+               "a loop cutting off at most this share of the faces removes that part instead")
+          .Add("remove_self_intersections", &S::remove_self_intersections,
+               "cut out self-intersecting faces with a few rings and refill the holes")
+          .Add("self_intersection_rounds", &S::self_intersection_rounds, 1, 100, "rounds of that");
+  return fields;
 }
 
-void CleanupOptions::Read(OptionsReader& r) {
-  r.ReadRange("crop_margin_m", &crop_margin_m, 0.0, 1.0);
-  r.ReadRange("crop_radius_m", &crop_radius_m, 0.0, 100.0);
-  r.ReadRange("crop_radius_scale", &crop_radius_scale, 0.1, 100.0);
-  r.ReadRange("min_component_fraction", &min_component_fraction, 0.0, 1.0);
-  r.Read("repair_non_manifold", &repair_non_manifold);
-  r.ReadRange("target_faces", &target_faces, 100, 10000000);
-  r.ReadRange("remesh_iterations", &remesh_iterations, 0, 100);
-  r.Read("fair_holes", &fair_holes);
-  r.Read("cut_small_handles", &cut_small_handles);
-  r.ReadRange("cut_off_fraction", &cut_off_fraction, 0.0, 0.5);
-  r.Read("remove_self_intersections", &remove_self_intersections);
-  r.ReadRange("self_intersection_rounds", &self_intersection_rounds, 1, 100);
-  r.Finish();
-}
-
-void CleanupOptions::Check() const {
-  RELIT_REQUIRE(crop_margin_m >= 0, "cleanup.crop_margin_m must be >= 0, got ", crop_margin_m);
-  RELIT_REQUIRE(crop_radius_m >= 0, "cleanup.crop_radius_m must be >= 0 (0 = automatic)");
-  RELIT_REQUIRE(crop_radius_scale > 0, "cleanup.crop_radius_scale must be > 0");
-  RELIT_REQUIRE(min_component_fraction >= 0 && min_component_fraction <= 1,
-                "cleanup.min_component_fraction must be in [0, 1]");
-  RELIT_REQUIRE(target_faces >= 100, "cleanup.target_faces must be >= 100, got ", target_faces);
-  RELIT_REQUIRE(remesh_iterations >= 0, "cleanup.remesh_iterations must be >= 0");
-  RELIT_REQUIRE(cut_off_fraction >= 0 && cut_off_fraction <= 0.5, "cleanup.cut_off_fraction must be in [0, 0.5]");
-  RELIT_REQUIRE(self_intersection_rounds >= 1, "cleanup.self_intersection_rounds must be >= 1, got ",
-                self_intersection_rounds);
-}
-
-nlohmann::json CleanupOptions::ToJson() const {
-  return {{"crop_margin_m", crop_margin_m},
-          {"crop_radius_m", crop_radius_m},
-          {"crop_radius_scale", crop_radius_scale},
-          {"min_component_fraction", min_component_fraction},
-          {"repair_non_manifold", repair_non_manifold},
-          {"target_faces", target_faces},
-          {"remesh_iterations", remesh_iterations},
-          {"fair_holes", fair_holes},
-          {"cut_small_handles", cut_small_handles},
-          {"cut_off_fraction", cut_off_fraction},
-          {"remove_self_intersections", remove_self_intersections},
-          {"self_intersection_rounds", self_intersection_rounds}};
-}
-
-void AtlasOptions::Read(OptionsReader& r) {
-  r.ReadRange("resolution_px", &resolution_px, 16, 16384);
-  r.ReadRange("gutter_px", &gutter_px, 1, 64);
-  r.ReadRange("max_normal_deviation_deg", &max_normal_deviation_deg, 1.0, 89.0);
-  r.ReadRange("roundness_weight", &roundness_weight, 0.0, 100.0);
-  r.ReadRange("seam_weight", &seam_weight, 0.0, 100.0);
-  r.ReadRange("max_chart_faces", &max_chart_faces, 1, 10000000);
-  r.ReadRange("max_stretch", &max_stretch, 1.0, 1000.0);
-  r.Read("merge_charts", &merge_charts);
-  r.ReadRange("merge_max_stretch", &merge_max_stretch, 1.0, 1000.0);
-  r.Read("write_preview", &write_preview);
-  r.Finish();
+const OptionFields<AtlasOptions>& AtlasOptions::Fields() {
+  using S = AtlasOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("resolution_px", &S::resolution_px, 16, 16384, "square texture the atlas is packed for")
+          .Add("gutter_px", &S::gutter_px, 1, 64, "empty texels around every chart; below resolution / 8")
+          .Add("max_normal_deviation_deg", &S::max_normal_deviation_deg, 1.0, 89.0,
+               "a face joins a chart while its normal stays this close to the chart's mean")
+          .Add("roundness_weight", &S::roundness_weight, 0.0, 100.0, "chart growth order: roundness weight")
+          .Add("seam_weight", &S::seam_weight, 0.0, 100.0, "chart growth order: seam cost weight")
+          .Add("max_chart_faces", &S::max_chart_faces, 1, 10000000, "faces per chart at most")
+          .Add("max_stretch", &S::max_stretch, 1.0, 1000.0,
+               "charts whose LSCM map stretches beyond this (L2, per chart) are split")
+          .Add("merge_charts", &S::merge_charts, "merge adjacent charts while the union maps well")
+          .Add("merge_max_stretch", &S::merge_max_stretch, 1.0, 1000.0, "largest L2 stretch of a merged chart")
+          .Add("write_preview", &S::write_preview, "write the atlas preview image");
+  return fields;
 }
 
 void AtlasOptions::Check() const {
-  RELIT_REQUIRE(resolution_px >= 16, "atlas.resolution_px must be >= 16, got ", resolution_px);
-  RELIT_REQUIRE(gutter_px >= 1 && gutter_px * 8 < resolution_px,
-                "atlas.gutter_px must be >= 1 and well below the resolution, got ", gutter_px);
-  RELIT_REQUIRE(max_normal_deviation_deg > 0 && max_normal_deviation_deg < 90,
-                "atlas.max_normal_deviation_deg must be in (0, 90)");
-  RELIT_REQUIRE(max_chart_faces >= 1, "atlas.max_chart_faces must be >= 1");
-  RELIT_REQUIRE(max_stretch >= 1, "atlas.max_stretch must be >= 1");
-  RELIT_REQUIRE(merge_max_stretch >= 1, "atlas.merge_max_stretch must be >= 1");
+  RELIT_REQUIRE(gutter_px * 8 < resolution_px, "gutter_px must be well below the resolution (< resolution_px / 8), got ",
+                gutter_px);
 }
 
-nlohmann::json AtlasOptions::ToJson() const {
-  return {{"resolution_px", resolution_px},
-          {"gutter_px", gutter_px},
-          {"max_normal_deviation_deg", max_normal_deviation_deg},
-          {"roundness_weight", roundness_weight},
-          {"seam_weight", seam_weight},
-          {"max_chart_faces", max_chart_faces},
-          {"max_stretch", max_stretch},
-          {"merge_charts", merge_charts},
-          {"merge_max_stretch", merge_max_stretch},
-          {"write_preview", write_preview}};
+const OptionFields<RefineOptions>& RefineOptions::Fields() {
+  using S = RefineOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("enabled", &S::enabled, "refine the cleaned proxy against the dense path's depth maps")
+          .Add("iterations", &S::iterations, 0, 10000, "refinement iterations")
+          .Add("step_m", &S::step_m, 0.0, 1.0, "first (largest) move per iteration (0 = 2 x the median pixel footprint)")
+          .Add("free_space_tolerance", &S::free_space_tolerance, 1e-5, 1.0,
+               "a view sees through a vertex when its depth exceeds the vertex's by this fraction")
+          .Add("min_free_space_views", &S::min_free_space_views, 1, 1000, "... and more views than this see through it")
+          .Add("support_band", &S::support_band, 1e-5, 1.0, "depth within this fraction: the view sees the vertex")
+          .Add("min_facing_cosine", &S::min_facing_cosine, 0.0, 1.0, "views at grazing angles or behind do not judge")
+          .Add("data_weight", &S::data_weight, 0.0, 1.0, "share of the offset to the seen surface moved per iteration")
+          .Add("smoothing", &S::smoothing, 0.0, 1.0, "Taubin lambda per iteration (mu = -1.02 lambda; 0 = none)");
+  return fields;
 }
 
-void TrimapOptions::Read(OptionsReader& r) {
-  r.ReadRange("band_px", &band_px, 0, 1000);
-  r.ReadRange("band_min_px", &band_min_px, 1, 1000);
-  r.ReadRange("image_fraction", &image_fraction, 0.0, 0.5);
-  r.ReadRange("proxy_error_m", &proxy_error_m, 0.0, 1.0);
-  r.Finish();
+const OptionFields<TrimapOptions>& TrimapOptions::Fields() {
+  using S = TrimapOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("band_px", &S::band_px, 0, 1000, "unknown band half width, pixels (0 = automatic, below)")
+          .Add("band_min_px", &S::band_min_px, 1, 1000, "automatic: this many pixels ...")
+          .Add("image_fraction", &S::image_fraction, 0.0, 0.5, "... + this x the image diagonal ...")
+          .Add("proxy_error_m", &S::proxy_error_m, 0.0, 1.0, "... + this proxy error (metres) projected");
+  return fields;
 }
 
-void TrimapOptions::Check() const {
-  RELIT_REQUIRE(band_px >= 0, "trimap.band_px must be >= 0 (0 = automatic)");
-  RELIT_REQUIRE(band_min_px >= 1, "trimap.band_min_px must be >= 1");
-  RELIT_REQUIRE(image_fraction >= 0, "trimap.image_fraction must be >= 0");
-  RELIT_REQUIRE(proxy_error_m >= 0, "trimap.proxy_error_m must be >= 0");
+const OptionFields<MattingOptions>& MattingOptions::Fields() {
+  using S = MattingOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("window_radius_px", &S::window_radius_px, 1, 5, "closed-form matting window radius (1: 3x3)")
+          .Add("epsilon", &S::epsilon, 1e-12, 1.0, "colour-line regulariser")
+          .Add("prior_weight", &S::prior_weight, 0.0, 1.0, "pull towards the proxy silhouette where colour says little")
+          .Add("multiscale_min_megapixels", &S::multiscale_min_megapixels, 0.0, 1000.0,
+               "larger frames are solved coarse to fine")
+          .Add("threads", &S::threads, 0, 1024, "0 = all cores");
+  return fields;
 }
 
-nlohmann::json TrimapOptions::ToJson() const {
-  return {{"band_px", band_px},
-          {"band_min_px", band_min_px},
-          {"image_fraction", image_fraction},
-          {"proxy_error_m", proxy_error_m}};
-}
-
-void MattingOptions::Read(OptionsReader& r) {
-  r.ReadRange("window_radius_px", &window_radius_px, 1, 5);
-  r.ReadRange("epsilon", &epsilon, 1e-12, 1.0);
-  r.ReadRange("prior_weight", &prior_weight, 0.0, 1.0);
-  r.ReadRange("multiscale_min_megapixels", &multiscale_min_megapixels, 0.0, 1000.0);
-  r.ReadRange("threads", &threads, 0, 1024);
-  r.Finish();
-}
-
-void MattingOptions::Check() const {
-  RELIT_REQUIRE(window_radius_px >= 1, "matting.window_radius_px must be >= 1");
-  RELIT_REQUIRE(epsilon > 0, "matting.epsilon must be > 0");
-  RELIT_REQUIRE(prior_weight >= 0, "matting.prior_weight must be >= 0");
-  RELIT_REQUIRE(multiscale_min_megapixels >= 0, "matting.multiscale_min_megapixels must be >= 0");
-  RELIT_REQUIRE(threads >= 0, "matting.threads must be >= 0");
-}
-
-nlohmann::json MattingOptions::ToJson() const {
-  return {{"window_radius_px", window_radius_px},
-          {"epsilon", epsilon},
-          {"prior_weight", prior_weight},
-          {"multiscale_min_megapixels", multiscale_min_megapixels},
-          {"threads", threads}};
-}
-
-void RefineOptions::Read(OptionsReader& r) {
-  r.Read("enabled", &enabled);
-  r.ReadRange("iterations", &iterations, 0, 10000);
-  r.ReadRange("step_m", &step_m, 0.0, 1.0);
-  r.ReadRange("free_space_tolerance", &free_space_tolerance, 1e-5, 1.0);
-  r.ReadRange("min_free_space_views", &min_free_space_views, 1, 1000);
-  r.ReadRange("support_band", &support_band, 1e-5, 1.0);
-  r.ReadRange("min_facing_cosine", &min_facing_cosine, 0.0, 1.0);
-  r.ReadRange("data_weight", &data_weight, 0.0, 1.0);
-  r.ReadRange("smoothing", &smoothing, 0.0, 1.0);
-  r.Finish();
-}
-
-void RefineOptions::Check() const {
-  RELIT_REQUIRE(iterations >= 0, "refine.iterations must be >= 0");
-  RELIT_REQUIRE(step_m >= 0, "refine.step_m must be >= 0 (0 = automatic)");
-  RELIT_REQUIRE(free_space_tolerance > 0 && support_band > 0, "refine: tolerances must be > 0");
-  RELIT_REQUIRE(min_free_space_views >= 1, "refine.min_free_space_views must be >= 1");
-  RELIT_REQUIRE(data_weight >= 0 && data_weight <= 1, "refine.data_weight must be in [0, 1]");
-  RELIT_REQUIRE(smoothing >= 0 && smoothing <= 1, "refine.smoothing must be in [0, 1]");
-}
-
-nlohmann::json RefineOptions::ToJson() const {
-  return {{"enabled", enabled},
-          {"iterations", iterations},
-          {"step_m", step_m},
-          {"free_space_tolerance", free_space_tolerance},
-          {"min_free_space_views", min_free_space_views},
-          {"support_band", support_band},
-          {"min_facing_cosine", min_facing_cosine},
-          {"data_weight", data_weight},
-          {"smoothing", smoothing}};
-}
-
-void ReconstructOptions::Read(OptionsReader& r) {
-  r.Read("workspace", &workspace);
-  r.Read("mesh", &mesh);
-  r.Read("log_level", &log_level);
-  r.ReadRange("max_matte_frames", &max_matte_frames, 0, 1000000);
-  OptionsReader p = r.Child("proxy");
-  const bool method_given = p.Has("method");
-  proxy.Read(p);
-  if (!mesh.empty() && !method_given) proxy.method = "mesh";  // mesh: alone means "use it"
-  OptionsReader c = r.Child("cleanup");
-  cleanup.Read(c);
-  OptionsReader rf = r.Child("refine");
-  refine.Read(rf);
-  OptionsReader a = r.Child("atlas");
-  atlas.Read(a);
-  OptionsReader t = r.Child("trimap");
-  trimap.Read(t);
-  OptionsReader m = r.Child("matting");
-  matting.Read(m);
-  r.Finish();
+const OptionFields<ReconstructOptions>& ReconstructOptions::Fields() {
+  using S = ReconstructOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("workspace", &S::workspace, "W: reads W/calib, writes W/reconstruct (`--workspace`)")
+          .Add("mesh", &S::mesh,
+               "user mesh (OBJ/PLY, board frame, metres; `--mesh`; pipeline: inputs.proxy_mesh); alone, it sets "
+               "proxy.method: mesh")
+          .Add("log_level", &S::log_level, LogLevelNames(), "what the stage prints (`--log-level`)")
+          .Add("max_matte_frames", &S::max_matte_frames, 0, 1000000, "phone V frames matted (0 = all)")
+          .Section("proxy", &S::proxy)
+          .Section("cleanup", &S::cleanup)
+          .Section("refine", &S::refine)
+          .Section("atlas", &S::atlas)
+          .Section("trimap", &S::trimap)
+          .Section("matting", &S::matting)
+          .OnRead([](OptionsReader& r, S* s) {
+            // mesh: alone means "use it"
+            if (!s->mesh.empty() && !r.Child("proxy").Has("method")) s->proxy.method = "mesh";
+          });
+  return fields;
 }
 
 void ReconstructOptions::Check() const {
   RELIT_REQUIRE(!workspace.empty(), "reconstruct: the workspace is required (--workspace W)");
-  RELIT_REQUIRE(max_matte_frames >= 0, "max_matte_frames must be >= 0");
-  proxy.Check();
   RELIT_REQUIRE(proxy.method != "mesh" || !mesh.empty(),
                 "reconstruct: proxy.method is mesh but no mesh is given (--mesh FILE or mesh: in the YAML)");
   RELIT_REQUIRE(mesh.empty() || proxy.method == "mesh", "reconstruct: a mesh (", mesh,
                 ") is given but proxy.method is ", proxy.method, "; set proxy.method: mesh (--mesh does)");
-  cleanup.Check();
-  refine.Check();
-  atlas.Check();
-  trimap.Check();
-  matting.Check();
-}
-
-nlohmann::json ReconstructOptions::ToJson() const {
-  return {{"workspace", workspace},
-          {"mesh", mesh},
-          {"log_level", log_level},
-          {"max_matte_frames", max_matte_frames},
-          {"proxy", proxy.ToJson()},
-          {"cleanup", cleanup.ToJson()},
-          {"refine", refine.ToJson()},
-          {"atlas", atlas.ToJson()},
-          {"trimap", trimap.ToJson()},
-          {"matting", matting.ToJson()}};
 }
 
 }  // namespace relit::reconstruct

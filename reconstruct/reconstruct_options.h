@@ -1,16 +1,65 @@
 // Options of the reconstruct stage (relit-reconstruct): proxy mesh cleanup,
-// UV atlas, trimaps and closed-form mattes. Defaults live here; a YAML file
-// (unknown keys are errors) and command-line flags go on top, then Check().
-// docs/reconstruct.md explains every option.
+// UV atlas, trimaps and closed-form mattes. Defaults live here; the field
+// tables (reconstruct_options.cc) read the YAML file (unknown keys are
+// errors), command-line flags go on top, then CheckOptions().
+// docs/reconstruct.md's table is generated from the field tables
+// (tools/options_doc) and explains every option.
 #pragma once
 
 #include <string>
 
-#include <nlohmann/json.hpp>
-
-#include "core/options.h"
+#include "core/option_fields.h"
 
 namespace relit::reconstruct {
+
+// Multi-view photometric refinement of each depth map (photo_refine.h):
+// every depth pixel is searched again within +/- search_fraction of its
+// depth (2 x search_steps + 1 planes) for the best mean ZNCC of a (2r+1)^2
+// window with the better half of up to `views` frames within
+// max_baseline_deg; pixels with a window contrast below min_texture grey
+// levels (of 255) keep their stereo depth, pixels whose best plane is at the
+// search edge or scores below min_score are dropped. color_sigma (grey
+// levels, 0 = plain ZNCC) weighs window pixels by their likeness to the
+// centre (bilateral). YAML: proxy.photo.
+struct PhotoRefineOptions {
+  bool enabled = true;
+  int views = 4;
+  double max_baseline_deg = 30.0;
+  int window_radius_px = 3;
+  double search_fraction = 0.02;
+  int search_steps = 10;
+  double min_texture = 2.0;
+  double min_score = 0.2;
+  double color_sigma = 20.0;
+  static const OptionFields<PhotoRefineOptions>& Fields();
+};
+
+// Depth-map hull (depth_hull.h): a voxel (voxel_m, 0 = the point spacing)
+// that min_free_views depth maps see through by more than free_tolerance of
+// its depth is carved; the grid is the fused points' bounds widened by
+// margin_fraction of their extent (at least 2 cm). Samples of the hull's
+// surface farther than point_gap x the point spacing from every fused point
+// join Poisson's input. YAML: proxy.hull.
+struct DepthHullOptions {
+  bool enabled = true;
+  double voxel_m = 0;
+  int min_free_views = 3;
+  double free_tolerance = 0.01;
+  double margin_fraction = 0.25;
+  double point_gap = 2.0;
+  // Below the object: within contact_height_m above proxy.min_height_m, the
+  // hull keeps only what lies within contact_radius_m (horizontally) of a
+  // fused point that low (0 = keep the whole band). A 10 mm radius keeps
+  // feet whose dark sides the stereo misses near the table (demo 1.29 ->
+  // 1.27 %, bunny 1.74 -> 1.69 %, `full` 0.93 -> 0.91 %); 20 mm starts to
+  // cap the table under a belly (docs/notes/reconstruct-measurements.md).
+  double contact_height_m = 0.005;
+  double contact_radius_m = 0.010;
+  // A hull that reaches more than this share of the grid's sides and top
+  // was not carved all around (no depth behind the object): not used.
+  double max_open_border = 0.01;
+  static const OptionFields<DepthHullOptions>& Fields();
+};
 
 // Where the proxy mesh comes from (docs/reconstruct.md, "Proxy source").
 struct ProxyOptions {
@@ -33,24 +82,7 @@ struct ProxyOptions {
   int uniqueness_ratio = 10;
   int speckle_window_px = 50;
   double max_left_right_difference_px = 1.0;  // left-right consistency of the disparities
-  // Multi-view photometric refinement of each depth map (photo_refine.h):
-  // every depth pixel is searched again within +/- photo_search_fraction of
-  // its depth (2 x photo_search_steps + 1 planes) for the best mean ZNCC of
-  // a (2r+1)^2 window with the better half of up to photo_views frames
-  // within photo_max_baseline_deg; pixels with a window contrast below
-  // photo_min_texture grey levels (of 255) keep their stereo depth, pixels
-  // whose best plane is at the search edge or scores below photo_min_score
-  // are dropped. photo_color_sigma (grey levels, 0 = plain ZNCC) weighs
-  // window pixels by their likeness to the centre (bilateral).
-  bool photo_refine = true;
-  int photo_views = 4;
-  double photo_max_baseline_deg = 30.0;
-  int photo_window_radius_px = 3;
-  double photo_search_fraction = 0.02;
-  int photo_search_steps = 10;
-  double photo_min_texture = 2.0;
-  double photo_min_score = 0.2;
-  double photo_color_sigma = 20.0;
+  PhotoRefineOptions photo;
   // Multi-view geometric consistency: a depth pixel survives when at least
   // min_consistent_views other frames, and at least min_consistent_fraction
   // of the other frames with a depth where it projects, see the point at
@@ -66,29 +98,7 @@ struct ProxyOptions {
   double min_cluster_fraction = 0.2;    // point clusters smaller than this x the largest are dropped
   double point_spacing_m = 0;           // grid for the fused points (0 = 1.5 x the median pixel footprint)
   int normal_neighbours = 18;           // CGAL jet normal fit
-  // Depth-map hull (depth_hull.h): a voxel (hull_voxel_m, 0 = the point
-  // spacing) that hull_min_free_views depth maps see through by more than
-  // hull_free_tolerance of its depth is carved; the grid is the fused
-  // points' bounds widened by hull_margin_fraction of their extent (at
-  // least 2 cm). Samples of the hull's surface farther than hull_point_gap
-  // x the point spacing from every fused point join Poisson's input.
-  bool hull_points = true;
-  double hull_voxel_m = 0;
-  int hull_min_free_views = 3;
-  double hull_free_tolerance = 0.01;
-  double hull_margin_fraction = 0.25;
-  double hull_point_gap = 2.0;
-  // Below the object: within hull_contact_height_m above min_height_m, the
-  // hull keeps only what lies within hull_contact_radius_m (horizontally)
-  // of a fused point that low (0 = keep the whole band). A 10 mm radius
-  // keeps feet whose dark sides the stereo misses near the table (demo
-  // 1.29 -> 1.27 %, bunny 1.74 -> 1.69 %, `full` 0.93 -> 0.91 %); 20 mm
-  // starts to cap the table under a belly (docs/reconstruct.md).
-  double hull_contact_height_m = 0.005;
-  double hull_contact_radius_m = 0.010;
-  // A hull that reaches more than this share of the grid's sides and top
-  // was not carved all around (no depth behind the object): not used.
-  double hull_max_open_border = 0.01;
+  DepthHullOptions hull;
   // COLMAP poisson_mesher (screened Poisson, Kazhdan & Hoppe 2013): octree
   // depth and density trim (drop surface supported by few points).
   int poisson_depth = 8;
@@ -100,9 +110,8 @@ struct ProxyOptions {
   double advancing_front_radius_ratio = 5.0;
   double advancing_front_beta = 0.52;
   int threads = 0;                      // 0 = all cores
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<ProxyOptions>& Fields();
+  void Check() const;  // across fields: baselines ordered, odd block, colmap named
 };
 
 struct CleanupOptions {
@@ -132,9 +141,7 @@ struct CleanupOptions {
   // self_intersection_rounds rounds (RemoveSelfIntersections).
   bool remove_self_intersections = true;
   int self_intersection_rounds = 10;
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<CleanupOptions>& Fields();
 };
 
 struct AtlasOptions {
@@ -158,9 +165,8 @@ struct AtlasOptions {
   bool merge_charts = true;
   double merge_max_stretch = 1.02;
   bool write_preview = true;
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<AtlasOptions>& Fields();
+  void Check() const;  // across fields: gutter well below the resolution
 };
 
 // Refinement of the cleaned proxy against the dense path's depth maps
@@ -179,9 +185,7 @@ struct RefineOptions {
   double min_facing_cosine = 0.4;       // views at grazing angles or behind the surface do not judge it
   double data_weight = 0.5;             // fraction of the mean offset to the seen surface moved per iteration
   double smoothing = 0.5;               // Taubin lambda per iteration (mu = -1.02 lambda); 0 = none
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<RefineOptions>& Fields();
 };
 
 struct TrimapOptions {
@@ -196,9 +200,7 @@ struct TrimapOptions {
   // on average but 6 mm at the 90th percentile (docs/notes/benchmarks-history.md); on its
   // frames 8-12 px bands give the same mattes, 4-6 px bands worse ones.
   double proxy_error_m = 0.008;
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<TrimapOptions>& Fields();
 };
 
 struct MattingOptions {
@@ -212,9 +214,7 @@ struct MattingOptions {
   // matte fixes the confidently opaque/transparent unknown pixels first.
   double multiscale_min_megapixels = 1.5;
   int threads = 0;                      // 0 = all cores
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<MattingOptions>& Fields();
 };
 
 struct ReconstructOptions {
@@ -231,9 +231,8 @@ struct ReconstructOptions {
   AtlasOptions atlas;
   TrimapOptions trimap;
   MattingOptions matting;
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<ReconstructOptions>& Fields();
+  void Check() const;  // across fields: the workspace, mesh and proxy.method agree
 };
 
 }  // namespace relit::reconstruct

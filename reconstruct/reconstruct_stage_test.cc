@@ -101,26 +101,77 @@ TEST(ClosedFormMatting, MultiScaleAgreesWithSingleScale) {
 TEST(ReconstructOptions, UnknownKeysAndBadValuesAreErrors) {
   ReconstructOptions options, typo_options, range_options;
   OptionsReader typo = OptionsReader::FromString("atlas:\n  resolution: 512\n");
-  EXPECT_THROW(typo_options.Read(typo), Error);
+  EXPECT_THROW(ReadOptions(typo, &typo_options), Error);
   OptionsReader range = OptionsReader::FromString("cleanup:\n  target_faces: 3\n");
-  EXPECT_THROW(range_options.Read(range), Error);
-  OptionsReader good = OptionsReader::FromString("atlas:\n  resolution_px: 1024\nmatting:\n  epsilon: 1.0e-6\n");
-  options.Read(good);
+  EXPECT_THROW(ReadOptions(range, &range_options), Error);
+  OptionsReader good = OptionsReader::FromString(
+      "atlas:\n  resolution_px: 1024\nmatting:\n  epsilon: 1.0e-6\nproxy:\n  photo: {views: 6}\n"
+      "  hull: {enabled: false, voxel_m: 0.003}\n");
+  ReadOptions(good, &options);
   EXPECT_EQ(options.atlas.resolution_px, 1024);
+  EXPECT_EQ(options.proxy.photo.views, 6);
+  EXPECT_FALSE(options.proxy.hull.enabled);
+  EXPECT_EQ(options.proxy.hull.voxel_m, 0.003);
   options.workspace = "w";
-  EXPECT_NO_THROW(options.Check());
-  EXPECT_EQ(options.ToJson()["atlas"]["resolution_px"], 1024);
+  EXPECT_NO_THROW(CheckOptions(options));
+  const nlohmann::json json = OptionsToJson(options);
+  EXPECT_EQ(json["atlas"]["resolution_px"], 1024);
+  EXPECT_EQ(json["proxy"]["hull"]["voxel_m"], 0.003);
   EXPECT_EQ(options.proxy.method, "dense");
   ReconstructOptions proxy_typo, proxy_bad, with_mesh;
   OptionsReader typo2 = OptionsReader::FromString("proxy:\n  neighbors: 2\n");
-  EXPECT_THROW(proxy_typo.Read(typo2), Error);
+  EXPECT_THROW(ReadOptions(typo2, &proxy_typo), Error);
   OptionsReader bad = OptionsReader::FromString("proxy:\n  method: mvs\n");
-  proxy_bad.Read(bad);
+  EXPECT_THROW(ReadOptions(bad, &proxy_bad), Error);
   proxy_bad.workspace = "w";
-  EXPECT_THROW(proxy_bad.Check(), Error);
+  proxy_bad.proxy.method = "mvs";
+  EXPECT_THROW(CheckOptions(proxy_bad), Error);
   OptionsReader mesh_only = OptionsReader::FromString("mesh: scan.obj\n");
-  with_mesh.Read(mesh_only);
+  ReadOptions(mesh_only, &with_mesh);
   EXPECT_EQ(with_mesh.proxy.method, "mesh");  // a mesh alone selects it
+}
+
+// Every flat photo_*/hull_* key of before the proxy.photo/proxy.hull
+// sections is refused with one line that names its new key.
+TEST(ReconstructOptions, MovedProxyKeysNameTheirNewKey) {
+  const std::vector<std::pair<std::string, std::string>> moved = {
+      {"photo_refine", "photo.enabled"},
+      {"photo_views", "photo.views"},
+      {"photo_max_baseline_deg", "photo.max_baseline_deg"},
+      {"photo_window_radius_px", "photo.window_radius_px"},
+      {"photo_search_fraction", "photo.search_fraction"},
+      {"photo_search_steps", "photo.search_steps"},
+      {"photo_min_texture", "photo.min_texture"},
+      {"photo_min_score", "photo.min_score"},
+      {"photo_color_sigma", "photo.color_sigma"},
+      {"hull_points", "hull.enabled"},
+      {"hull_voxel_m", "hull.voxel_m"},
+      {"hull_min_free_views", "hull.min_free_views"},
+      {"hull_free_tolerance", "hull.free_tolerance"},
+      {"hull_margin_fraction", "hull.margin_fraction"},
+      {"hull_point_gap", "hull.point_gap"},
+      {"hull_contact_height_m", "hull.contact_height_m"},
+      {"hull_contact_radius_m", "hull.contact_radius_m"},
+      {"hull_max_open_border", "hull.max_open_border"}};
+  for (const auto& [old_key, new_key] : moved) {
+    OptionsReader reader = OptionsReader::FromString("proxy:\n  method: dense\n  " + old_key + ": 1\n", "r.yaml");
+    ReconstructOptions options;
+    try {
+      ReadOptions(reader, &options);
+      ADD_FAILURE() << old_key << " was accepted";
+    } catch (const Error& e) {
+      const std::string expected =
+          "r.yaml:3:" + std::to_string(5 + old_key.size()) + " key 'proxy." + old_key + "': moved to 'proxy." + new_key + "'";
+      EXPECT_EQ(std::string(e.what()), expected);
+    }
+    // The new key is read (with its default value, as JSON text).
+    const std::string section = new_key.substr(0, new_key.find('.'));
+    const std::string key = new_key.substr(new_key.find('.') + 1);
+    const std::string value = OptionsToJson(ProxyOptions())[section][key].dump();
+    OptionsReader now =
+        OptionsReader::FromString("proxy:\n  " + section + ":\n    " + key + ": " + value + "\n", "r.yaml");
+    EXPECT_NO_THROW(ReadOptions(now, &options)) << new_key;
+  }
 }
 
 TEST(Reconstruct, UserMeshToProxyAtlasAndMattes) {

@@ -72,7 +72,7 @@ bool ParameterizeChart(const render::TriangleMesh& mesh, std::vector<int> faces,
 }  // namespace atlas
 
 UvAtlas BuildAtlas(const render::TriangleMesh& mesh, const AtlasOptions& options, AtlasStats* stats) {
-  options.Check();
+  CheckOptions(options, "atlas");
   RELIT_REQUIRE(!mesh.triangles.empty(), "reconstruct: cannot build a UV atlas for an empty mesh");
   const auto start = std::chrono::steady_clock::now();
   auto seconds = [&] { return SecondsSince(start); };

@@ -7,7 +7,6 @@
 #include <Eigen/Geometry>
 
 #include "core/error.h"
-#include "core/options.h"
 
 namespace relit::report {
 
@@ -23,27 +22,17 @@ std::string Fixed(double value) {
 
 }  // namespace
 
-void CoverageThresholds::Read(OptionsReader& reader) {
-  reader.ReadRange("min_view_spread_deg", &min_view_spread_deg, 0.0, 90.0);
-  reader.ReadRange("min_light_spread_deg", &min_light_spread_deg, 0.0, 90.0);
-  reader.ReadRange("min_relative_light_spread_deg", &min_relative_light_spread_deg, 0.0, 90.0);
-  reader.ReadRange("min_view_light_angle_deg", &min_view_light_angle_deg, 0.0, 180.0);
-  reader.Finish();
-}
-
-void CoverageThresholds::Check() const {
-  for (const double v : {min_view_spread_deg, min_light_spread_deg, min_relative_light_spread_deg}) {
-    RELIT_REQUIRE(v >= 0 && v <= 90, "coverage: spread thresholds must be in [0, 90] degrees");
-  }
-  RELIT_REQUIRE(min_view_light_angle_deg >= 0 && min_view_light_angle_deg <= 180,
-                "coverage.min_view_light_angle_deg must be in [0, 180]");
-}
-
-nlohmann::json CoverageThresholds::ToJson() const {
-  return {{"min_view_spread_deg", min_view_spread_deg},
-          {"min_light_spread_deg", min_light_spread_deg},
-          {"min_relative_light_spread_deg", min_relative_light_spread_deg},
-          {"min_view_light_angle_deg", min_view_light_angle_deg}};
+const OptionFields<CoverageThresholds>& CoverageThresholds::Fields() {
+  using S = CoverageThresholds;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("min_view_spread_deg", &S::min_view_spread_deg, 0.0, 90.0, "warn below this spread of camera directions")
+          .Add("min_light_spread_deg", &S::min_light_spread_deg, 0.0, 90.0, "... of light directions")
+          .Add("min_relative_light_spread_deg", &S::min_relative_light_spread_deg, 0.0, 90.0,
+               "... of the light seen from the camera")
+          .Add("min_view_light_angle_deg", &S::min_view_light_angle_deg, 0.0, 180.0,
+               "warn below this median angle between camera and light");
+  return fields;
 }
 
 nlohmann::json CoverageStats::ToJson() const {

@@ -11,9 +11,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
-namespace relit {
-class OptionsReader;
-}
+#include "core/option_fields.h"
 
 namespace relit::report {
 
@@ -23,9 +21,7 @@ struct CoverageThresholds {
   double min_relative_light_spread_deg = 15;  // spread of the light seen from the camera
   double min_view_light_angle_deg = 10;       // median angle between camera and light
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<CoverageThresholds>& Fields();
 };
 
 struct CoverageStats {

@@ -26,7 +26,7 @@ bool IsNotRun(const Section& section) { return section.html.rfind("<div class=\"
 }  // namespace
 
 ReportSummary RunReportImpl(const ReportOptions& options) {
-  options.Check();
+  CheckOptions(options);
   const auto start = std::chrono::steady_clock::now();
   const spdlog::level::level_enum level = ParseLogLevel(options.log_level);
   const fs::path workspace(options.workspace);
@@ -35,7 +35,7 @@ ReportSummary RunReportImpl(const ReportOptions& options) {
   AtomicDir out(workspace / "report", OutputGuard{"relit-report", options.force, {}}, "--workspace");
   LogFileScope log_scope((out.path() / "report.log").string(), level);
   RunRecord record("relit-report");
-  record.SetOptions(options.ToJson());
+  record.SetOptions(OptionsToJson(options));
 
   ReportContext context(workspace, out.path(), options);
   ReadObjectCentre(context);
@@ -120,13 +120,13 @@ int RunReport(int argc, char** argv) {
   ReportOptions options;
   if (!config.empty()) {
     OptionsReader reader = OptionsReader::FromFile(config);
-    options.Read(reader);
+    ReadOptions(reader, &options);
   }
   if (!workspace.empty()) options.workspace = workspace;
   if (!log_level.empty()) options.log_level = log_level;
   options.force = force;
   SetVerbosity(ParseLogLevel(options.log_level));
-  options.Check();
+  CheckOptions(options);
   RunReportImpl(options);
   return 0;
 }

@@ -1,16 +1,12 @@
 // Options of relit-report. YAML (--config): the `report:` section of
-// pipeline.yaml as its own file; unknown keys are errors.
+// pipeline.yaml as its own file; unknown keys are errors. The field tables
+// (report_options.cc) read it and generate docs/report.md's table.
 #pragma once
 
 #include <string>
 
-#include <nlohmann/json.hpp>
-
+#include "core/option_fields.h"
 #include "report/coverage.h"
-
-namespace relit {
-class OptionsReader;
-}
 
 namespace relit::report {
 
@@ -20,9 +16,7 @@ struct MeshPreviewOptions {
   double elevation_deg = 30;    // above the board plane
   int samples_per_pixel = 8;    // path tracer samples (direct light only)
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<MeshPreviewOptions>& Fields();
 };
 
 struct ReportOptions {
@@ -37,9 +31,8 @@ struct ReportOptions {
   MeshPreviewOptions mesh_preview;
   CoverageThresholds coverage;
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<ReportOptions>& Fields();
+  void Check() const;  // the workspace is given; ranges: CheckOptions
 };
 
 }  // namespace relit::report

@@ -396,15 +396,15 @@ TEST(ReportOptionsTest, UnknownKeysAndBadValuesAreErrors) {
   ReportOptions o;
   OptionsReader ok = OptionsReader::FromString("thumbnail_width_px: 200\nmesh_preview: {views: 2}\n"
                                                "coverage: {min_view_spread_deg: 30}\n");
-  o.Read(ok);
+  ReadOptions(ok, &o);
   EXPECT_EQ(o.thumbnail_width_px, 200);
   EXPECT_EQ(o.mesh_preview.views, 2);
   EXPECT_EQ(o.coverage.min_view_spread_deg, 30);
   ReportOptions bad;
   OptionsReader typo = OptionsReader::FromString("mesh_preview: {veiws: 2}\n");
-  EXPECT_THROW(bad.Read(typo), Error);
+  EXPECT_THROW(ReadOptions(typo, &bad), Error);
   OptionsReader range = OptionsReader::FromString("thumbnail_width_px: 5\n");
-  EXPECT_THROW(bad.Read(range), Error);
+  EXPECT_THROW(ReadOptions(range, &bad), Error);
   ReportOptions missing;
   EXPECT_THROW(RunReportImpl(missing), Error);
   missing.workspace = "/nonexistent/relit/workspace";
