@@ -357,11 +357,13 @@ void CheckReproducible(const SynthOptions& s, const CapturePlan& plan) {
 
 }  // namespace
 
-CyclesCaptureSummary MakeCyclesCapture(const CyclesCaptureOptions& o) {
+CyclesCaptureSummary MakeCyclesCapture(const CyclesCaptureOptions& options) {
   const auto start = std::chrono::steady_clock::now();
+  RELIT_REQUIRE(!options.out_dir.empty(), "--out is required");
+  const fs::path out = fs::absolute(options.out_dir);
+  CyclesCaptureOptions o = options;
+  o.synth.out = (out / "capture").string();  // where the capture goes (not part of the cache key)
   o.synth.Check();
-  RELIT_REQUIRE(!o.out_dir.empty(), "--out is required");
-  const fs::path out = fs::absolute(o.out_dir);
   const fs::path scene_dir = out / "render" / "scene";
   const SynthScene scene = BuildCyclesScene(o);
   const CapturePlan plan = synth::MakeCapturePlan(o.synth, scene);
@@ -446,9 +448,9 @@ CyclesCaptureSummary MakeCyclesCapture(const CyclesCaptureOptions& o) {
   for (json& frame : truth["videos"]["view"]["frames"]) frame.erase("alpha");  // no per-frame mattes
   WriteJsonFile((root / "truth.json").string(), synth::kTruthKind, synth::kTruthVersion, truth);
   RunRecord record("relit-bench-cycles-capture");
-  json options = o.synth.ToJson();
-  options["blender_threads"] = o.threads;
-  record.SetOptions(options);
+  json recorded = o.synth.ToJson();
+  recorded["blender_threads"] = o.threads;
+  record.SetOptions(recorded);
   for (const auto& [key, value] : summary.ToJson().items()) record.Set(key, value);
   summary.assemble_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - assemble).count();
   record.Set("assemble_s", summary.assemble_s);

@@ -288,6 +288,8 @@ def main():
     with open(args.spec) as f:
         spec = json.load(f)
     jobs = spec["jobs"]
+    for job in jobs:  # outputs are relative to the cache folder
+        job["output"] = os.path.join(spec["output_root"], job["output"])
     todo = [j for j in jobs if not os.path.exists(j["output"])]
     for index, job in enumerate(jobs):
         if os.path.exists(job["output"]):

@@ -110,9 +110,10 @@ int Run(int argc, char** argv) {
   }
   if (spp > 0) options.samples_per_pixel = spp;
   if (eval_spp > 0) options.eval_samples_per_pixel = eval_spp;
+  const fs::path root = fs::absolute(out);
+  options.out = (root / "capture").string();
   options.Check();
 
-  const fs::path root = fs::absolute(out);
   fs::create_directories(root);
   json record = {{"tool", "relit-bench-cycles-capture"}, {"renderer", renderer}, {"date", Today()},
                  {"config", fs::absolute(config).string()}, {"pipeline", fs::absolute(pipeline).string()},
