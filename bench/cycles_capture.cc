@@ -381,10 +381,29 @@ CyclesCaptureSummary MakeCyclesCapture(const CyclesCaptureOptions& options) {
   const std::map<std::string, Canvas> canvases = {{"view", MakeCanvas(plan.view.intrinsics)},
                                                   {"light", MakeCanvas(plan.light.intrinsics)}};
   json spec = MakeSpec(o, plan, scene_dir, canvases);
+  // Two caches, so that changing the eval set keeps the video frames and the
+  // other way round: each keyed by its jobs, the scene files' contents, the
+  // scene description and the script.
+  std::string scene_key = ReadText(o.script);
+  for (const json& object : spec["objects"]) {
+    scene_key += object.dump() + ReadText(object["mesh"]);
+    if (object["material"].contains("texture")) scene_key += ReadText(object["material"]["texture"]);
+  }
+  for (const auto& [name, path] : spec["envmaps"].items()) scene_key += name + ReadText(path);
+  scene_key += json{{"max_bounces", spec["max_bounces"]}}.dump();
+  std::string video_jobs, eval_jobs;
+  for (const json& job : spec["jobs"]) (job["kind"] == "video" ? video_jobs : eval_jobs) += job.dump();
+  const std::string video_dir = "videos-" + Fnv1a64Hex(scene_key + video_jobs);
+  const std::string eval_dir = "eval-" + Fnv1a64Hex(scene_key + eval_jobs);
+  for (json& job : spec["jobs"]) {
+    job["output"] = (job["kind"] == "video" ? video_dir : eval_dir) + "/" + job["output"].get<std::string>();
+  }
+  json capture_options = o.synth.ToJson();
+  capture_options.erase("out");
   CyclesCaptureSummary summary;
-  summary.spec_hash = Fnv1a64Hex(spec.dump() + ReadText(o.script));
+  summary.spec_hash = Fnv1a64Hex(video_dir + eval_dir + capture_options.dump());
   summary.jobs = static_cast<int>(spec["jobs"].size());
-  const fs::path cache = out / "render" / summary.spec_hash;
+  const fs::path cache = out / "render";
   summary.capture_dir = (out / "capture").string();
 
   const fs::path truth_path = out / "capture" / "truth.json";
@@ -411,8 +430,8 @@ CyclesCaptureSummary MakeCyclesCapture(const CyclesCaptureOptions& options) {
   synth::WriteSceneTruth(scene, root.string());
   synth::WriteCaptureAudio(o.synth, plan, root.string());
   Progress progress("assemble", static_cast<int64_t>(plan.view.frames.size() + plan.light.frames.size()));
-  EncodeVideo(o.synth, plan.view, 0, canvases.at("view"), cache, root, &progress);
-  EncodeVideo(o.synth, plan.light, 1, canvases.at("light"), cache, root, &progress);
+  EncodeVideo(o.synth, plan.view, 0, canvases.at("view"), cache / video_dir, root, &progress);
+  EncodeVideo(o.synth, plan.light, 1, canvases.at("light"), cache / video_dir, root, &progress);
   progress.Finish();
   for (const auto& [name, map] : envmaps) {
     fs::create_directories(root / "eval/envmaps");
@@ -420,8 +439,9 @@ CyclesCaptureSummary MakeCyclesCapture(const CyclesCaptureOptions& options) {
   }
   for (const json& job : spec["jobs"]) {
     if (job["kind"] == "video") continue;
-    const std::string rel = job["output"];
-    const Image rendered = ReadImage((cache / rel).string());
+    const std::string cached = job["output"];
+    const std::string rel = cached.substr(eval_dir.size() + 1);  // its path in the capture
+    const Image rendered = ReadImage((cache / cached).string());
     fs::create_directories((root / rel).parent_path());
     if (job["kind"] == "alpha") {
       Image alpha = rendered.SelectChannels(std::vector<int>{3});

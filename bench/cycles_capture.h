@@ -15,9 +15,13 @@
 //
 // Layout of the output folder:
 //   render/scene/      world-frame meshes, board texture and envmaps Blender reads
-//   render/<hash>/     Cycles EXRs, one per job, kept between runs (the cache:
-//                      <hash> covers every job, the scene and the script)
-//   capture/           the capture folder, rebuilt only when <hash> changes
+//   render/videos-<hash>/, render/eval-<hash>/
+//                      Cycles EXRs, one per job, kept between runs (the cache:
+//                      each <hash> covers its jobs, the scene files and the
+//                      script, so a new eval set keeps the video frames);
+//                      render/spec.json and render/blender.log: the last run
+//   capture/           the capture folder, rebuilt only when a hash or the
+//                      sensor/encoding options change
 #pragma once
 
 #include <string>
