@@ -75,10 +75,23 @@ CaptureScores ScoreCapture(const std::string& workspace, const std::string& capt
   const json truth = ReadJsonFile((capture / "truth.json").string(), "synth_truth", 1);
   CaptureScores s;
 
+  // capture.json times are container presentation times on phone V's file
+  // clock (frame 0 at first_frame_pts_s), truth's t_common_s counts from phone
+  // V's first frame: what must agree is the time between a phone L frame and a
+  // phone V frame, so the error is the mean clock difference of L's frames
+  // minus V's (their mean, exactly V's first-frame pts with no error).
   const CaptureFile capture_file = ReadCaptureFile(CaptureFilePath(workspace));
   s.sync_offset_s = capture_file.sync_offset_s;
   s.truth_offset_s = truth.at("light_start_offset_s").get<double>();
-  s.sync_error_ms = (s.sync_offset_s - s.truth_offset_s) * 1e3;
+  const auto mean_lead = [&](const std::vector<CaptureFrame>& frames, const char* video) {
+    double sum = 0;
+    for (const CaptureFrame& f : frames) {
+      sum += f.time_s - truth.at("videos").at(video).at("frames").at(f.source_frame).at("t_common_s").get<double>();
+    }
+    RELIT_REQUIRE(!frames.empty(), "capture.json has no ", video, " frames");
+    return sum / frames.size();
+  };
+  s.sync_error_ms = (mean_lead(capture_file.light, "light") - mean_lead(capture_file.view, "view")) * 1e3;
 
   CameraAte(workspace, truth, &s);
   s.calib_accuracy = calib::MeasureCalibAccuracy(workspace, truth).ToJson();

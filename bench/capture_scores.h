@@ -2,7 +2,9 @@
 // (relit-synth's or the Cycles capture's truth.json): what each stage got
 // right, read from the workspace's files only.
 //
-//   capture:     sync offset error (capture.json vs truth light_start_offset_s)
+//   capture:     sync error: phone L frames' times minus phone V frames' times in
+//                capture.json, each against truth.json's t_common_s (capture.json
+//                uses the files' presentation times, truth.json counts from frame 0)
 //   calib:       camera ATE (RMSE of camera centres after a similarity
 //                alignment, Umeyama) per phone, and calib/truth_accuracy.cc's
 //                medians in the board frame (no alignment), flash position
