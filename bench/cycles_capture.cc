@@ -471,10 +471,11 @@ CyclesCaptureSummary MakeCyclesCapture(const CyclesCaptureOptions& options) {
   json recorded = o.synth.ToJson();
   recorded["blender_threads"] = o.threads;
   record.SetOptions(recorded);
-  for (const auto& [key, value] : summary.ToJson().items()) record.Set(key, value);
+  record.Set("cycles", summary.ToJson());
   summary.assemble_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - assemble).count();
-  record.Set("assemble_s", summary.assemble_s);
-  record.Set("total_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  record.AddTiming("cycles_render", summary.render_s);
+  record.AddTiming("assemble", summary.assemble_s);
+  record.Set("capture_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   record.Write((root / "run.json").string());
   folder.Commit();
   return summary;
