@@ -24,9 +24,9 @@ interrupted run resumes. Conventions:
   (the C++ side moves relit's column x to (W/2 - 1 - x) mod W: Cycles has u =
   0.5 - atan2(y, x) / 2pi, relit u = atan2(y, x) / 2pi; rows agree, top =
   zenith; nearest lookup as relit's); background strength = scale.
-* Materials: the board and the table use the truth's own linear albedo
-  textures (Non-Color, bilinear); the foreground objects are painted here,
-  procedurally (Principled BSDF), which relit never sees.
+* Materials: the board uses the truth's own linear albedo texture
+  (Non-Color, bilinear); the bunny, the sphere and the table are painted
+  here, procedurally (Principled BSDF), which relit never sees.
 * Bounces: relit max_depth counts lit path vertices; Cycles max_bounces =
   max_depth - 1 (the caller passes it).
 
