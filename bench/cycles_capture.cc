@@ -55,6 +55,21 @@ std::string ReadText(const std::string& path) {
   return s.str();
 }
 
+// The script's code as a cache key: its docstring and comment lines left
+// out, so that editing the documentation does not throw away hours of renders.
+std::string ScriptKey(const std::string& script) {
+  const size_t open = script.find("\"\"\"");
+  const size_t close = open == std::string::npos ? open : script.find("\"\"\"", open + 3);
+  std::istringstream lines(close == std::string::npos ? script : script.substr(close + 3));
+  std::string key;
+  for (std::string line; std::getline(lines, line);) {
+    const size_t first = line.find_first_not_of(" \t");
+    if (first == std::string::npos || line[first] == '#') continue;
+    key += line.substr(0, line.find("  # ")) + "\n";
+  }
+  return key;
+}
+
 json Matrix(const Rigid3& t) {
   const Eigen::Matrix3d r = t.rotation.toRotationMatrix();
   json m = json::array();
@@ -384,7 +399,7 @@ CyclesCaptureSummary MakeCyclesCapture(const CyclesCaptureOptions& options) {
   // Two caches, so that changing the eval set keeps the video frames and the
   // other way round: each keyed by its jobs, the scene files' contents, the
   // scene description and the script.
-  std::string scene_key = ReadText(o.script);
+  std::string scene_key = ScriptKey(ReadText(o.script));
   for (const json& object : spec["objects"]) {
     scene_key += object.dump() + ReadText(object["mesh"]);
     if (object["material"].contains("texture")) scene_key += ReadText(object["material"]["texture"]);
