@@ -36,43 +36,6 @@ Image AlphaChannel(const render::RenderResult& result) {
   return alpha;
 }
 
-// Records the room sound of every video into WAV files under truth/audio.
-// Each phone records as long as its video, at its own sample rate, from its
-// audio_start_s on its own clock.
-void WriteAudio(const SynthOptions& o, const CapturePlan& plan, const fs::path& root) {
-  const RoomSoundParams params;
-  const double duration = o.duration_s();
-  const auto samples = [](const VideoPlan& video) {
-    return static_cast<int64_t>(std::llround(video.duration_s() * video.audio_rate_hz));
-  };
-  const auto begin_s = [](const VideoPlan& video) { return video.start_common_s + video.audio_start_s; };
-  const double begin = std::min(begin_s(plan.view), begin_s(plan.light)) - 0.01;
-  const double end = std::max(begin_s(plan.view) + plan.view.duration_s(),
-                              begin_s(plan.light) + plan.light.duration_s()) + 0.01;
-  const RoomSound room(params, begin, end, plan.clap_times_common_s, SubSeed(o.seed, kRoomSound));
-  fs::create_directories(root / "truth/audio");
-  WriteWav((root / "truth/audio/view.wav").string(),
-           room.Record(begin_s(plan.view), samples(plan.view), plan.view.audio_rate_hz, 1.0,
-                       SubSeed(o.seed, kMic)),
-           plan.view.audio_rate_hz);
-  WriteWav((root / "truth/audio/light.wav").string(),
-           room.Record(begin_s(plan.light), samples(plan.light), plan.light.audio_rate_hz,
-                       0.8, SubSeed(o.seed, kMic + 1)),
-           plan.light.audio_rate_hz);
-  if (!plan.geometry.frames.empty()) {
-    // A separate session: its own room sound and claps.
-    const double geometry_begin = std::min(0.0, plan.geometry.audio_start_s) - 0.01;
-    const RoomSound other(params, geometry_begin, duration + plan.geometry.audio_start_s + 0.02,
-                          PickClapTimes(0.1 * duration, 0.9 * duration, o.clap_count, 0.05,
-                                        SubSeed(o.seed, kGeometryRoom)),
-                          SubSeed(o.seed, kGeometryRoom));
-    WriteWav((root / "truth/audio/geometry.wav").string(),
-             other.Record(plan.geometry.audio_start_s, samples(plan.geometry), plan.geometry.audio_rate_hz,
-                          1.0, SubSeed(o.seed, kMic + 2)),
-             plan.geometry.audio_rate_hz);
-  }
-}
-
 SensorParams Sensor(const SynthOptions& o) {
   SensorParams sensor;
   sensor.exposure = o.exposure;
@@ -274,6 +237,44 @@ int RenderEvalSet(const SynthOptions& o, const CapturePlan& plan, const SynthSce
 
 }  // namespace
 
+// Records the room sound of every video into WAV files under truth/audio.
+// Each phone records as long as its video, at its own sample rate, from its
+// audio_start_s on its own clock.
+void WriteCaptureAudio(const SynthOptions& o, const CapturePlan& plan, const std::string& out_dir) {
+  const fs::path root(out_dir);
+  const RoomSoundParams params;
+  const double duration = o.duration_s();
+  const auto samples = [](const VideoPlan& video) {
+    return static_cast<int64_t>(std::llround(video.duration_s() * video.audio_rate_hz));
+  };
+  const auto begin_s = [](const VideoPlan& video) { return video.start_common_s + video.audio_start_s; };
+  const double begin = std::min(begin_s(plan.view), begin_s(plan.light)) - 0.01;
+  const double end = std::max(begin_s(plan.view) + plan.view.duration_s(),
+                              begin_s(plan.light) + plan.light.duration_s()) + 0.01;
+  const RoomSound room(params, begin, end, plan.clap_times_common_s, SubSeed(o.seed, kRoomSound));
+  fs::create_directories(root / "truth/audio");
+  WriteWav((root / "truth/audio/view.wav").string(),
+           room.Record(begin_s(plan.view), samples(plan.view), plan.view.audio_rate_hz, 1.0,
+                       SubSeed(o.seed, kMic)),
+           plan.view.audio_rate_hz);
+  WriteWav((root / "truth/audio/light.wav").string(),
+           room.Record(begin_s(plan.light), samples(plan.light), plan.light.audio_rate_hz,
+                       0.8, SubSeed(o.seed, kMic + 1)),
+           plan.light.audio_rate_hz);
+  if (!plan.geometry.frames.empty()) {
+    // A separate session: its own room sound and claps.
+    const double geometry_begin = std::min(0.0, plan.geometry.audio_start_s) - 0.01;
+    const RoomSound other(params, geometry_begin, duration + plan.geometry.audio_start_s + 0.02,
+                          PickClapTimes(0.1 * duration, 0.9 * duration, o.clap_count, 0.05,
+                                        SubSeed(o.seed, kGeometryRoom)),
+                          SubSeed(o.seed, kGeometryRoom));
+    WriteWav((root / "truth/audio/geometry.wav").string(),
+             other.Record(plan.geometry.audio_start_s, samples(plan.geometry), plan.geometry.audio_rate_hz,
+                          1.0, SubSeed(o.seed, kMic + 2)),
+             plan.geometry.audio_rate_hz);
+  }
+}
+
 Image RotatedForDisplay(const Image& image, int rotation_deg) {
   if (rotation_deg == 0) return image;
   const int w = image.width(), h = image.height();
@@ -308,7 +309,7 @@ SynthSummary RunSynthImpl(const SynthOptions& options) {
                              CustomMesh{options.mesh_path, options.mesh_height_m, options.mesh_y_up});
     plan = MakeCapturePlan(options, synth_scene);
     WriteSceneTruth(synth_scene, root.string());
-    WriteAudio(options, plan, root);
+    WriteCaptureAudio(options, plan, root.string());
   }
   spdlog::info("relit-synth: preset {} size {} seed {}: {}x{} px, {} frames per video, "
                "light_start_offset_s {:+.6f}",

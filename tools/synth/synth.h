@@ -5,6 +5,7 @@
 #include <string>
 
 #include "core/image.h"
+#include "tools/synth/capture_plan.h"
 #include "tools/synth/synth_options.h"
 
 namespace relit::synth {
@@ -20,6 +21,12 @@ struct SynthSummary {
 // Renders everything described by `options` into options.out (atomically:
 // the directory appears complete or not at all). Throws relit::Error.
 SynthSummary RunSynthImpl(const SynthOptions& options);
+
+// Records the shared room sound (noise and claps on the common clock) as
+// each phone hears it, over its own recording interval and at its own
+// sample rate: <out_dir>/truth/audio/{view,light[,geometry]}.wav, the tracks
+// the videos are muxed with. Also used by relit-bench-cycles-capture.
+void WriteCaptureAudio(const SynthOptions& options, const CapturePlan& plan, const std::string& out_dir);
 
 // The image as a phone shows it: turned clockwise by its display rotation
 // (0, 90, 180, 270), as players apply the rotation of the videos. Board-clip
