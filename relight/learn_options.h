@@ -148,7 +148,9 @@ struct TrainStageOptions {
   // Residual model: after training, each correction network stays only if
   // it beats the cue regression / the proxy's coverage on the validation
   // frames (train_loop.h KeepHelpfulCorrections); false = keep both.
-  bool validate_corrections = true;
+  // Off by default: the choice is saved into the checkpoint, so training
+  // continued with more steps no longer reproduces an uninterrupted run.
+  bool validate_corrections = false;
   TrainOptions optimizer;        // Adam, crops, seed, threads (same keys, same level)
 
   void Read(OptionsReader& reader);
