@@ -59,6 +59,13 @@ double Dot(const std::vector<double>& a, const std::vector<double>& b) {
   return sum;
 }
 
+// Channel c of the fit's prediction: sum_k w[k * 3 + c] cue[k * 3 + c].
+double PredictChannel(const std::array<float, CueTextureFit::kWeights>& w, const float* cues, int c) {
+  double predicted = 0;
+  for (int k = 0; k < CueTextureFit::kBases; ++k) predicted += w[3 * k + c] * cues[3 * k + c];
+  return predicted;
+}
+
 }  // namespace
 
 double ResolveSaturationLevel(double level, const std::string& capture_transfer) {
@@ -234,8 +241,12 @@ float ReadBilinear(const std::vector<float>& image, int w, int h, int channels, 
 
 void CueTextureFit::MarkClipped(Sample* s) const {
   s->clipped = 0;
-  if (options_.saturation_level <= 0) return;  // off, or auto left unresolved (no capture known)
-  for (int c = 0; c < 3; ++c) s->clipped |= (s->target[c] >= options_.saturation_level ? 1 : 0) << c;
+  for (int c = 0; c < 3; ++c) s->clipped |= (IsClipped(s->target[c]) ? 1 : 0) << c;
+}
+
+bool CueTextureFit::IsClipped(double value) const {
+  // <= 0: off, or auto left unresolved (no capture known).
+  return options_.saturation_level > 0 && value >= options_.saturation_level;
 }
 
 void CueTextureFit::BuildSamples() {
@@ -278,9 +289,8 @@ void CueTextureFit::AlignFrames() {
           const std::array<float, kWeights> w = WeightsAt(f.uv[2 * o], f.uv[2 * o + 1]);
           for (int c = 0; c < 3; ++c) {
             const double t = ReadBilinear(f.target, f.width, f.height, 3, c, xs, ys);
-            if (options_.saturation_level > 0 && t >= options_.saturation_level) continue;
-            double predicted = 0;
-            for (int k = 0; k < kBases; ++k) predicted += w[3 * k + c] * f.cues[o * kWeights + 3 * k + c];
+            if (IsClipped(t)) continue;
+            const double predicted = PredictChannel(w, &f.cues[o * kWeights], c);
             const Eigen::Vector2d gradient(
                 0.5 * (ReadBilinear(f.target, f.width, f.height, 3, c, xs + 1, ys) -
                        ReadBilinear(f.target, f.width, f.height, 3, c, xs - 1, ys)),
@@ -453,9 +463,7 @@ int64_t CueTextureFit::UpdateActiveSets() {
     const std::array<float, kWeights> w = WeightsAt(s.u, s.v);
     for (int c = 0; c < 3; ++c) {
       if (!(s.clipped >> c & 1)) continue;
-      double pred = 0;
-      for (int k = 0; k < kBases; ++k) pred += w[3 * k + c] * s.cues[3 * k + c];
-      const char below = pred < s.target[c] ? 1 : 0;
+      const char below = PredictChannel(w, s.cues.data(), c) < s.target[c] ? 1 : 0;
       changed += below != active_[c][i];
       active_[c][i] = below;
     }
@@ -525,8 +533,7 @@ CueFitStats CueTextureFit::Solve() {
     for (int j = 0; j < 4; ++j) seen[b.texel[j]] |= b.weight[j] > 0 ? 1 : 0;
     const std::array<float, kWeights> w = WeightsAt(s.u, s.v);
     for (int c = 0; c < 3; ++c) {
-      double pred = 0;
-      for (int k = 0; k < kBases; ++k) pred += w[3 * k + c] * s.cues[3 * k + c];
+      const double pred = PredictChannel(w, s.cues.data(), c);
       // A clipped channel only bounds the prediction from below.
       const double error = (s.clipped >> c & 1) ? std::min(0.0, pred - s.target[c]) : pred - s.target[c];
       sq += error * error;

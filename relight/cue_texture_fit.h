@@ -167,6 +167,7 @@ class CueTextureFit {
   // samples_ = the loose pixels + every frame's foreground read at its shift.
   void BuildSamples();
   void MarkClipped(Sample* s) const;
+  bool IsClipped(double value) const;  // at or above the saturation level
   // Solves all channels: coarse to fine from the global fit (first call)
   // or at the final level from the current weights.
   int SolveWeights(bool from_scratch);

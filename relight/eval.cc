@@ -243,6 +243,9 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
   std::unique_ptr<CuesOnlyBaseline> baseline;
   std::unique_ptr<CueTextureFit> cue_fit;
   int baseline_frames = 0;
+  // How phone V was linearised: the cue fit's clipping level and the white level below.
+  const std::string capture_transfer = CaptureTransfer(root.string());
+  const double cue_fit_saturation_level = ResolveSaturationLevel(options.cue_fit.saturation_level, capture_transfer);
   {
     auto timer = record.Time("load");
     for (const std::string& m : methods) {
@@ -265,7 +268,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
     if (want_cues_only) baseline = std::make_unique<CuesOnlyBaseline>(options.baseline_resolution_px, options.baseline_ridge);
     if (want_cue_fit) {
       CueFitOptions fit = options.cue_fit;
-      fit.saturation_level = ResolveSaturationLevel(fit.saturation_level, CaptureTransfer(root.string()));
+      fit.saturation_level = cue_fit_saturation_level;
       cue_fit = std::make_unique<CueTextureFit>(options.cue_fit_resolution_px, fit);
     }
     std::vector<const PlanFrame*> frames;
@@ -301,7 +304,6 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
   }
   // The white level: 1 for SDR video (sRGB / gamma 2.2, what relit-synth
   // writes); HDR captures keep highlights above 1, so 1 would be wrong there.
-  const std::string capture_transfer = CaptureTransfer(root.string());
   if ((capture_transfer == "hlg" || capture_transfer == "pq") && options.clip_radiance == 1.0) {
     spdlog::warn("eval: the capture linearised {} video (1 = reference white, highlights above it), but "
                  "eval.clip_radiance is 1: set it to the video's peak in linear units, or 0 for no clip",
@@ -424,8 +426,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
                      {"pixels", baseline ? baseline->pixels_used() : 0}}},
       {"cue_fit", {{"training_frames", baseline_frames},
                    {"resolution_px", options.cue_fit_resolution_px},
-                   {"saturation_level", ResolveSaturationLevel(options.cue_fit.saturation_level,
-                                                               CaptureTransfer(root.string()))},
+                   {"saturation_level", cue_fit_saturation_level},
                    {"pixels", cue_fit ? cue_fit->pixels() : 0}}},
       {"models", asset.partition_models},
       {"zoom_pngs", zooms},
