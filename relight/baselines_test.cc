@@ -173,7 +173,7 @@ TEST_F(BaselinesTest, OneBasisAblationFlowsThroughEveryStep) {
 }
 
 TEST_F(BaselinesTest, ShBaselineFlowsThroughEveryStepAndCompares) {
-  const auto [ws, config] = Variant("sh", ", input: sh");
+  const auto [ws, config] = Variant("sh", ", input: sh, support_plane: false");
   const json eval = RunAll(ws, config);
   const json cues = ReadJsonFile(ws + "/relight/cues/cues.json", "cues", 1);
   EXPECT_EQ(cues["input"], "sh");

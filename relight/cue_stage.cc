@@ -15,6 +15,8 @@
 #include "core/capture_file.h"
 #include "core/workspace.h"
 #include "relight/cue_frames.h"
+#include "relight/support_plane.h"
+#include "relight/table_albedo.h"
 
 namespace relit::relight {
 
@@ -95,6 +97,36 @@ namespace {
 
 std::string FrameStem(const std::string& name) {
   return fs::path(name).filename().string();  // "view/000012" -> "000012"
+}
+
+// The table's albedo measured on the phone V frames (table_albedo.h); the
+// default grey when they do not show enough of it lit (a warning says why).
+Eigen::Vector3d MeasureTableAlbedo(const fs::path& root, const fs::path& mesh_path, const CamerasFile& cameras,
+                                   const CuesFile& cues, RunRecord& record) {
+  auto timer = record.Time("table_albedo");
+  const auto scene = LoadProxyScene(mesh_path.string(), cues.support_plane);
+  std::vector<TableAlbedoFrame> frames;
+  for (const CueFrameRecord& r : cues.frames) {
+    const CalibratedFrame* frame = cameras.Find(r.name);
+    if (frame == nullptr || frame->image_linear.empty()) continue;
+    frames.push_back({r.name, Camera(cameras.undistorted_view, r.cam_from_world), r.light_position_m,
+                      (root / frame->image_linear).string()});
+  }
+  const TableAlbedoEstimate estimate = EstimateTableAlbedo(*scene, cues.support_plane, frames);
+  record.Set("table_albedo_frames", estimate.frames_used);
+  record.Set("table_albedo_pixels", estimate.table_pixels);
+  if (!estimate.found) {
+    const Eigen::Vector3d fallback = Eigen::Vector3d::Constant(kDefaultTableAlbedo);
+    spdlog::warn("cues: the table's albedo could not be measured ({}); using {} (set cues.table_albedo)",
+                 estimate.reason, kDefaultTableAlbedo);
+    record.Set("table_albedo", std::vector<double>{fallback.x(), fallback.y(), fallback.z()});
+    return fallback;
+  }
+  const Eigen::Vector3d& a = estimate.table_albedo;
+  spdlog::info("cues: table albedo {:.3f} {:.3f} {:.3f} (linear RGB, {} lit pixels in {} frames against the paper)",
+               a.x(), a.y(), a.z(), estimate.table_pixels, estimate.frames_used);
+  record.Set("table_albedo", std::vector<double>{a.x(), a.y(), a.z()});
+  return a;
 }
 
 }  // namespace
@@ -178,8 +210,12 @@ CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions&
     cues.support_plane.paper_albedo = options.paper_albedo;
     cues.support_plane.ink_albedo = options.ink_albedo;
     cues.support_plane.paper_margin_m = options.paper_margin_m;
-    cues.support_plane.table_albedo = Eigen::Vector3d(options.table_albedo.data());
     cues.support_plane.table_half_size_m = std::max(1.5, 20 * proxy.object_radius_m);
+    if (options.table_albedo.empty()) {
+      cues.support_plane.table_albedo = MeasureTableAlbedo(root, mesh_path, cameras, cues, record);
+    } else {
+      cues.support_plane.table_albedo = Eigen::Vector3d(options.table_albedo.data());
+    }
     cues.support_plane.Check(cameras_path.string());
   }
   auto scene = LoadProxyScene(mesh_path.string(), cues.support_plane);

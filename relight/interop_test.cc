@@ -325,6 +325,7 @@ TEST_F(InteropTest, UnwrappingPutsEverySurfacePointInItsTexel) {
         render::Hit hit;
         const Eigen::Vector3f ray = camera.PixelToWorldRay(Eigen::Vector2d(x, y)).cast<float>();
         if (!scene->Intersect(camera.Center().cast<float>(), ray, 0, 1e3f, &hit)) continue;
+        if (hit.object_id != kProxyObjectId) continue;  // the board and table are background, as in renders
         rgba.at(x, y, 3) = 1;
         for (int c = 0; c < 3; ++c) rgba.at(x, y, c) = colour_of(hit.position)[c];
       }

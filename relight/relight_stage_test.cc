@@ -88,6 +88,11 @@ TEST_F(RelightStageTest, CuesAndPlanDescribeEveryFrame) {
     }
   }
   EXPECT_GT(covered, 500);
+  // The table's albedo, measured on the frames against the paper, is the
+  // synthetic wood's diffuse part (its glossy lobe adds a little).
+  ASSERT_TRUE(cues.support_plane.enabled);
+  const Eigen::Vector3d wood(0.22, 0.14, 0.08);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(cues.support_plane.table_albedo[c], wood[c], 0.1 * wood[c]) << c;
   const Plan plan = ReadPlan(dir_ + "/relight/plan/plan.json");
   ASSERT_EQ(plan.partitions.size(), 1u);
   EXPECT_EQ(plan.partitions[0].train_frames.size(), 18u);
@@ -145,6 +150,13 @@ TEST_F(RelightStageTest, TrainedModelBeatsCuesOnlyBaselineOnHeldOutFrames) {
     baseline_metrics.push_back(CompareToReference(baseline.Predict(cues), target, matte));
     smooth_metrics.push_back(CompareToReference(smooth_fit.Predict(cues), target, matte));
   }
+  std::vector<ImageMetrics> fit_metrics;
+  for (int index : plan.partitions[0].train_frames) {
+    const PlanFrame& f = plan.frames[index];
+    fit_metrics.push_back(CompareToReference(RenderFrame(trained, CueFrameToBatch(ReadCueFrame(dir_ + "/" + f.cues))),
+                                             ReadImage(dir_ + "/" + f.image), ReadImage(dir_ + "/" + f.matte)));
+  }
+  std::printf("training frames PSNR: trained %.2f dB\n", PoolMetrics(fit_metrics).psnr_db);
   const ImageMetrics ours = PoolMetrics(model_metrics), before = PoolMetrics(untrained_metrics),
                      theirs = PoolMetrics(baseline_metrics), smooth = PoolMetrics(smooth_metrics);
   std::printf("held-out PSNR: trained %.2f dB (MAE %.4f, alpha MAE %.4f), step 0 %.2f dB (alpha MAE %.4f), "

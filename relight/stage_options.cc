@@ -34,10 +34,11 @@ void CueStageOptions::Check() const {
   Format().Check();
   RELIT_REQUIRE(ink_albedo <= paper_albedo, "cues.ink_albedo (", ink_albedo, ") must not exceed cues.paper_albedo (",
                 paper_albedo, ")");
-  RELIT_REQUIRE(table_albedo.size() == 3 && std::all_of(table_albedo.begin(), table_albedo.end(),
-                                                        [](double a) { return a >= 0 && a <= 1; }),
-                "cues.table_albedo must be 3 linear RGB values in [0, 1]");
-  RELIT_REQUIRE(!support_plane || !Format().is_sh(), "cues.support_plane needs cues.input: radiance");
+  RELIT_REQUIRE((table_albedo.empty() || table_albedo.size() == 3) &&
+                    std::all_of(table_albedo.begin(), table_albedo.end(), [](double a) { return a >= 0 && a <= 1; }),
+                "cues.table_albedo must be [] (measured on the frames) or 3 linear RGB values in [0, 1]");
+  RELIT_REQUIRE(!support_plane || !Format().is_sh(),
+                "cues.support_plane needs cues.input: radiance (set cues.support_plane: false for input: sh)");
 }
 
 nlohmann::json CueStageOptions::ToJson() const {
@@ -47,8 +48,8 @@ nlohmann::json CueStageOptions::ToJson() const {
                       {"flash_intensity", flash_intensity},
                       {"threads", threads}};
   if (!Format().is_default()) j.update(Format().ToJson());
-  if (support_plane) {  // only when on: records of older runs stay equal
-    j["support_plane"] = true;
+  j["support_plane"] = support_plane;
+  if (support_plane) {
     j["paper_albedo"] = paper_albedo;
     j["ink_albedo"] = ink_albedo;
     j["paper_margin_m"] = paper_margin_m;

@@ -35,11 +35,14 @@ struct CueStageOptions {
   std::vector<std::string> bases = CueFormat::DefaultBasisNames();
   // The board and table as context geometry of the cue scene (support_plane.h):
   // the cues then hold the flash's bounce off the table and the shadows on it.
-  bool support_plane = false;
+  // Without it an object's flank lit only by that bounce has black cues.
+  bool support_plane = true;
   double paper_albedo = 0.8;     // linear albedo of the board's white paper
   double ink_albedo = 0.03;      // of its printed black
   double paper_margin_m = 0.01;  // white paper around the printed squares
-  std::vector<double> table_albedo = {0.2, 0.2, 0.2};  // linear RGB beyond the paper
+  // Linear RGB of the table beyond the paper; empty = measured on the phone V
+  // frames against the paper (table_albedo.h).
+  std::vector<double> table_albedo;
 
   CueFormat Format() const { return {input, bases}; }
   void Read(OptionsReader& reader);
