@@ -34,6 +34,7 @@ ModelOptions ModelOptionsFromJson(const nlohmann::json& j_in, const std::string&
   // Residual checkpoints from before the smooth fit read their weights per texel.
   if (j.is_object() && !j.contains("cue_fit")) j["cue_fit"] = "per_texel";
   if (j.is_object() && !j.contains("object_window_margin_px")) j["object_window_margin_px"] = 0;
+  if (j.is_object() && !j.contains("mask_band_px")) j["mask_band_px"] = 0;  // alpha over the whole frame
   for (const char* key : {"input", "bases"}) {
     if (j.is_object() && j.contains(key)) {
       format[key] = j[key];

@@ -87,6 +87,9 @@ struct ModelOptions {
   int n_blocks = 6;                 // renderer residual blocks (DNL: 9)
   int mask_ngf = 16;                // mask network: half the renderer's channels
   int mask_n_blocks = 3;
+  // Residual variant: the mask network corrects the coverage only within
+  // this many pixels of it; alpha is 0 farther out (0 = everywhere).
+  int mask_band_px = 8;
   std::string upsampling = "transposed";  // "transposed" | "resize_conv"
   std::string norm = "instance";          // "instance" | "none" (both networks)
   // The renderer's last conv also sees its input (full-resolution skip).

@@ -127,6 +127,7 @@ void ModelOptions::Read(OptionsReader& reader) {
   reader.ReadRange("n_blocks", &n_blocks, 0, 64);
   reader.ReadRange("mask_ngf", &mask_ngf, 1, 512);
   reader.ReadRange("mask_n_blocks", &mask_n_blocks, 0, 64);
+  reader.ReadRange("mask_band_px", &mask_band_px, 0, 4096);
   reader.Read("upsampling", &upsampling);
   reader.Read("norm", &norm);
   reader.Read("input_skip", &input_skip);
@@ -166,6 +167,7 @@ nlohmann::json ModelOptions::ToJson() const {
           {"n_blocks", n_blocks},
           {"mask_ngf", mask_ngf},
           {"mask_n_blocks", mask_n_blocks},
+          {"mask_band_px", mask_band_px},
           {"upsampling", upsampling},
           {"norm", norm},
           {"input_skip", input_skip},

@@ -340,7 +340,9 @@ TEST(ResidualModelTest, KeepsOnlyCorrectionsThatHelpOnValidationFrames) {
   EXPECT_GT(harmful.without_renderer.psnr_db, harmful.trained.psnr_db);
   EXPECT_GE(harmful.chosen.psnr_db, harmful.trained.psnr_db);
   EXPECT_EQ(trainer.model()->gates()[0].item<double>(), 0.0);
-  if (!harmful.mask_kept) EXPECT_EQ(trainer.model()->gates()[1].item<double>(), 0.0);
+  if (!harmful.mask_kept) {
+    EXPECT_EQ(trainer.model()->gates()[1].item<double>(), 0.0);
+  }
 
   Trainer helped(model_options, train_options);
   WarmStartCueRegression(helped.model(), frames, train_options.cue_fit);
@@ -351,6 +353,42 @@ TEST(ResidualModelTest, KeepsOnlyCorrectionsThatHelpOnValidationFrames) {
               useful.without_renderer.psnr_db);
   EXPECT_TRUE(useful.renderer_kept);
   EXPECT_EQ(helped.model()->gates()[0].item<double>(), gate);
+}
+
+// The residual variant's mask network corrects the coverage only within
+// model.mask_band_px of it: farther out alpha is exactly 0, however large
+// the (here untrained, full-strength) correction.
+TEST(ResidualModelTest, MaskCorrectsOnlyNearTheCoverage) {
+  std::vector<Batch> frames = Frames(2, 32, 21);
+  ModelOptions model_options = testing::TinyModelOptions();
+  model_options.max_radiance = MaxRadiance(frames);
+  model_options.object_window_margin_px = 0;
+  model_options.mask_band_px = 2;
+  DnlModel model(model_options);
+  {
+    torch::NoGradGuard no_grad;
+    for (torch::Tensor gate : model->gates()) gate.fill_(25.0);
+  }
+  const auto coverage = frames[0].coverage[0][0];
+  const auto alpha = model->Render(frames[0])[0][3];
+  int far = 0, near_changed = 0;
+  for (int y = 0; y < 32; ++y) {
+    for (int x = 0; x < 32; ++x) {
+      bool near = false;  // a covered pixel within 2 px (square window)
+      for (int v = std::max(0, y - 2); v <= std::min(31, y + 2); ++v) {
+        for (int u = std::max(0, x - 2); u <= std::min(31, x + 2); ++u) near |= coverage[v][u].item<float>() > 0;
+      }
+      const double a = alpha[y][x].item<double>();
+      if (!near) {
+        ++far;
+        EXPECT_LT(a, 1e-9) << x << "," << y;
+      } else if (std::abs(a - coverage[y][x].item<double>()) > 0.01) {
+        ++near_changed;
+      }
+    }
+  }
+  EXPECT_GT(far, 50);
+  EXPECT_GT(near_changed, 10);  // the correction acts inside the band
 }
 
 // Checkpoints written before the variants existed hold DNL models.
