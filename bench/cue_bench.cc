@@ -220,11 +220,7 @@ int Run(int argc, char** argv) {
   app.add_option("--assets", o.assets_dir, "directory holding spot.obj");
   app.add_option("--cycles-script", o.script, "path of bench/cycles_scene.py");
   app.add_option("--output-dir", o.output_dir, "where EXRs and cycles.log are written (one folder per size)");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
+  CLI11_PARSE(app, argc, argv);
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(o.threads));
 
   BenchSceneSpec spec;

@@ -212,7 +212,7 @@ json MakeSpec(const CyclesCaptureOptions& o, const CapturePlan& plan, const fs::
                                {"foreground", std::string(name) == "bunny" || std::string(name) == "sphere"}});
   }
   for (const char* name : {"sky", "studio"}) spec["envmaps"][name] = (scene_dir / "envmaps" / (std::string(name) + ".exr")).string();
-  json options = s.ToJson();
+  json options = OptionsToJson(s);
   options.erase("out");
   spec["synth_options"] = options;
   json jobs = json::array();
@@ -299,7 +299,7 @@ void RunBlender(const CyclesCaptureOptions& o, const json& spec, const fs::path&
   const int exit_code = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
   log.close();
   progress.Finish();
-  summary->render_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary->render_s = SecondsSince(start);
   if (video_n > 0) summary->video_frame_s = video_s / video_n;
   if (eval_n > 0) summary->eval_image_s = eval_s / eval_n;
   if (exit_code != 0) {
@@ -378,7 +378,7 @@ CyclesCaptureSummary MakeCyclesCapture(const CyclesCaptureOptions& options) {
   const fs::path out = fs::absolute(options.out_dir);
   CyclesCaptureOptions o = options;
   o.synth.out = (out / "capture").string();  // where the capture goes (not part of the cache key)
-  o.synth.Check();
+  CheckOptions(o.synth);
   const fs::path scene_dir = out / "render" / "scene";
   const SynthScene scene = BuildCyclesScene(o);
   const CapturePlan plan = synth::MakeCapturePlan(o.synth, scene);
@@ -413,7 +413,7 @@ CyclesCaptureSummary MakeCyclesCapture(const CyclesCaptureOptions& options) {
   for (json& job : spec["jobs"]) {
     job["output"] = (job["kind"] == "video" ? video_dir : eval_dir) + "/" + job["output"].get<std::string>();
   }
-  json capture_options = o.synth.ToJson();
+  json capture_options = OptionsToJson(o.synth);
   capture_options.erase("out");
   CyclesCaptureSummary summary;
   summary.spec_hash = Fnv1a64Hex(video_dir + eval_dir + capture_options.dump());
@@ -483,14 +483,14 @@ CyclesCaptureSummary MakeCyclesCapture(const CyclesCaptureOptions& options) {
   for (json& frame : truth["videos"]["view"]["frames"]) frame.erase("alpha");  // no per-frame mattes
   WriteJsonFile((root / "truth.json").string(), synth::kTruthKind, synth::kTruthVersion, truth);
   RunRecord record("relit-bench-cycles-capture");
-  json recorded = o.synth.ToJson();
+  json recorded = OptionsToJson(o.synth);
   recorded["blender_threads"] = o.threads;
   record.SetOptions(recorded);
   record.Set("cycles", summary.ToJson());
-  summary.assemble_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - assemble).count();
+  summary.assemble_s = SecondsSince(assemble);
   record.AddTiming("cycles_render", summary.render_s);
   record.AddTiming("assemble", summary.assemble_s);
-  record.Set("capture_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  record.Set("capture_s", SecondsSince(start));
   record.Write((root / "run.json").string());
   folder.Commit();
   return summary;

@@ -35,15 +35,11 @@ using nlohmann::json;
 namespace relit::bench {
 namespace {
 
-double Since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 // relit-synth's capture of the same options (preset bunny, no sphere: the
 // painted sphere is Blender's), rebuilt only when the options change.
 bool MakeRelitCapture(synth::SynthOptions options, const fs::path& out) {
   options.out = (out / "capture").string();
-  json stored = options.ToJson();
+  json stored = OptionsToJson(options);
   stored.erase("out");
   const fs::path truth_path = out / "capture" / "truth.json";
   const fs::path options_path = out / "capture_options.json";
@@ -88,11 +84,7 @@ int Run(int argc, char** argv) {
   app.add_flag("--skip-pipeline", skip_pipeline, "score the existing workspace without running relit");
   app.add_option("--compare-with", compare_with, "another output folder of this tool: print its scores beside");
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
+  CLI11_PARSE(app, argc, argv);
   SetVerbosity(ParseLogLevel(log_level));
 
   synth::SynthOptions options;
@@ -101,7 +93,7 @@ int Run(int argc, char** argv) {
     OptionsReader::FromFile(config).Read("size", &size);
     options = synth::SynthOptions::ForSize(size);
     OptionsReader reader = OptionsReader::FromFile(config);
-    options.Read(reader);
+    ReadOptions(reader, &options);
     options.size = size;
   }
   if (frames > 0) {
@@ -112,14 +104,14 @@ int Run(int argc, char** argv) {
   if (eval_spp > 0) options.eval_samples_per_pixel = eval_spp;
   const fs::path root = fs::absolute(out);
   options.out = (root / "capture").string();
-  options.Check();
+  CheckOptions(options);
 
   fs::create_directories(root);
   json previous;  // a --skip-pipeline run keeps the pipeline's time of the run that ran it
   if (fs::exists(root / "bench.json")) previous = ReadJsonFile((root / "bench.json").string(), "bench_cycles_capture", 1);
   json record = {{"tool", "relit-bench-cycles-capture"}, {"renderer", renderer}, {"date", Today()},
                  {"config", fs::absolute(config).string()}, {"pipeline", fs::absolute(pipeline).string()},
-                 {"synth_options", options.ToJson()}, {"load_average_start", LoadAverage()},
+                 {"synth_options", OptionsToJson(options)}, {"load_average_start", LoadAverage()},
                  {"nproc", std::thread::hardware_concurrency()}};
   const auto start = std::chrono::steady_clock::now();
   if (renderer == "cycles") {
@@ -135,9 +127,9 @@ int Run(int argc, char** argv) {
     const auto render_start = std::chrono::steady_clock::now();
     const bool reused = MakeRelitCapture(options, root);
     record["capture"] = {{"capture_dir", (root / "capture").string()}, {"capture_reused", reused},
-                         {"render_s", reused ? 0.0 : Since(render_start)}};
+                         {"render_s", reused ? 0.0 : SecondsSince(render_start)}};
   }
-  record["capture_s"] = Since(start);
+  record["capture_s"] = SecondsSince(start);
   if (render_only) {
     WriteJsonFile((root / "bench.json").string(), "bench_cycles_capture", 1, record);
     return 0;
@@ -152,7 +144,7 @@ int Run(int argc, char** argv) {
     spdlog::info("pipeline: {}", command);
     const auto pipeline_start = std::chrono::steady_clock::now();
     const int status = std::system(command.c_str());
-    record["pipeline_s"] = Since(pipeline_start);
+    record["pipeline_s"] = SecondsSince(pipeline_start);
     RELIT_REQUIRE(status == 0, "the pipeline failed (", ExitDescription(status), "): ", command);
   } else if (previous.contains("pipeline_s")) {
     record["pipeline_s"] = previous["pipeline_s"];
@@ -161,7 +153,7 @@ int Run(int argc, char** argv) {
   WriteJsonFile((root / "scores.json").string(), "capture_scores", 1, scores.ToJson());
   record["scores"] = scores.ToJson();
   record["load_average_end"] = LoadAverage();
-  record["total_s"] = Since(start);
+  record["total_s"] = SecondsSince(start);
   WriteJsonFile((root / "bench.json").string(), "bench_cycles_capture", 1, record);
 
   std::vector<std::pair<std::string, CaptureScores>> rows;

@@ -470,11 +470,7 @@ int RunReconstructBench(int argc, char** argv) {
                  "(how much a matte can add to an exact silhouette as the band narrows)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--json", o.json_out, "also write the results to this JSON file");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
+  CLI11_PARSE(app, argc, argv);
   RELIT_REQUIRE(o.sweep_band_px == 0 || !o.offset_sweep_mm.empty(),
                 "--sweep-band-px only sets the offset sweep's band: add --offset-sweep (e.g. --offset-sweep=0,2)");
   const fs::path ws(o.workspace);

@@ -222,11 +222,7 @@ int Run(int argc, char** argv) {
   app.add_flag("!--no-memory", o.memory, "skip the peak-memory probes");
   app.add_flag("!--no-dnl", o.dnl, "skip the DNL-size memory probe (one step takes ~15-50 s)");
   app.add_option("--probe", o.probe, "internal: run one memory probe")->group("");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
+  CLI11_PARSE(app, argc, argv);
   if (!o.probe.empty()) return Probe(o);
   RELIT_REQUIRE(o.steps % kWarmupSteps == 0, "--steps must be a multiple of ", kWarmupSteps);
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <utility>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
@@ -18,6 +19,7 @@
 #include "core/log.h"
 #include "core/progress.h"
 #include "core/run_record.h"
+#include "core/stage_run.h"
 #include "core/workspace.h"
 
 namespace relit::calib {
@@ -66,13 +68,12 @@ std::string FrameFile(const std::string& dir, const CaptureFrame& frame, const s
 CalibSummary RunCalibImpl(const CalibOptions& options) {
   CheckOptions(options);
   const auto start = std::chrono::steady_clock::now();
-  const spdlog::level::level_enum level = ParseLogLevel(options.log_level);
   const fs::path workspace(options.workspace);
   const CaptureInput input = ReadCaptureFile(options.workspace);
-  AtomicDir out(workspace / "calib", OutputGuard{"relit-calib", options.force, {}}, "--workspace");
-  const fs::path root = out.path();
-  LogFileScope log_scope((root / "calib.log").string(), level);
-  RunRecord record("relit-calib");
+  StageRun run({"relit-calib", workspace / "calib", options.force, {}, "--workspace", "calib.log",
+                ParseLogLevel(options.log_level)});
+  const fs::path root = run.path();
+  RunRecord& record = run.record();
   record.SetOptions(OptionsToJson(options));
   record.AddInput("capture", (workspace / "capture" / "capture.json").string());
   nlohmann::json report;
@@ -295,7 +296,7 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
   report["timings_s"] = record.ToJson()["timings_s"];
   WriteJsonFile((root / "calib_report.json").string(), kReportKind, kReportVersion, report);
 
-  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.seconds = SecondsSince(start);
   spdlog::info("timings: detection OpenCV {:.2f} ms/frame, libapriltag {} | {}",
                report["detection"]["view"]["opencv_ms_per_frame"].get<double>(),
                report["detection"]["view"]["apriltag_frames"].get<int>() > 0
@@ -309,9 +310,7 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
                summary.lights, summary.unreliable_lights, summary.seconds);
   record.Set("registered", summary.registered);
   record.Set("corner_rms_px", summary.corner_rms_px);
-  record.Write((root / "run.json").string());
-  InitLogging("", level);  // close the log file before the folder moves
-  out.Commit();
+  run.Commit();
   summary.out_dir = (workspace / "calib").string();
   return summary;
 }
@@ -328,24 +327,11 @@ int RunCalib(int argc, char** argv) {
   app.add_flag("--no-sfm", no_sfm, "board poses only, no COLMAP (sfm.enabled: false)");
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
   app.add_flag("--force", options_force, "replace a W/calib folder that relit-calib did not write");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
-  CalibOptions options;
-  if (!config.empty()) {
-    OptionsReader reader = OptionsReader::FromFile(config);
-    ReadOptions(reader, &options);
-  }
+  CLI11_PARSE(app, argc, argv);
+  CalibOptions options = ReadOptionsFile<CalibOptions>(config);
   if (!workspace.empty()) options.workspace = workspace;
   if (no_sfm) options.sfm.enabled = false;
-  options.force = options_force;
-  if (!log_level.empty()) options.log_level = log_level;
-  SetVerbosity(ParseLogLevel(options.log_level));
-  CheckOptions(options);
-  RunCalibImpl(options);
-  return 0;
+  return RunStageCommand(std::move(options), options_force, log_level, RunCalibImpl);
 }
 
 }  // namespace relit::calib

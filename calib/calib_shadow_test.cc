@@ -38,7 +38,7 @@ TEST(CalibShadowTest, PartialBoardsUnderAFlashShadowStillRegister) {
   } else {
     synth::SynthOptions o = synth::SynthOptions::ForSize("tiny");
     OptionsReader reader = OptionsReader::FromFile(RELIT_CALIB_SHADOW_TEST_CONFIG);
-    o.Read(reader);
+    ReadOptions(reader, &o);
     o.out = synth_dir.string();
     synth::RunSynthImpl(o);
   }

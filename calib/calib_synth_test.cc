@@ -43,7 +43,7 @@ class CalibSynthTest : public ::testing::Test {
     } else {
       synth::SynthOptions o = synth::SynthOptions::ForSize("tiny");
       OptionsReader reader = OptionsReader::FromFile(RELIT_CALIB_TEST_SYNTH_CONFIG);
-      o.Read(reader);
+      ReadOptions(reader, &o);
       o.out = synth_dir.string();
       synth::RunSynthImpl(o);
     }

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <utility>
 
 #include <CLI/CLI.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -19,6 +20,7 @@
 #include "core/log.h"
 #include "core/progress.h"
 #include "core/run_record.h"
+#include "core/stage_run.h"
 
 namespace relit::capture {
 
@@ -164,51 +166,40 @@ void CaptureGeometry(const CaptureOptions& o, const fs::path& root, RunRecord* r
   (*capture)["geometry_frames"] = frames;
 }
 
-}  // namespace
+// What frame selection keeps: phone V's source frames and, per kept phone V
+// frame, the phone L frames around it.
+struct Selection {
+  std::vector<int> view_sources;
+  std::vector<std::vector<int>> light_of_view;
+  std::map<int, int> light_index;  // phone L source frame -> output index
 
-CaptureSummary RunCaptureImpl(const CaptureOptions& options) {
-  CheckOptions(options);
-  const auto start = std::chrono::steady_clock::now();
-  const spdlog::level::level_enum level = ParseLogLevel(options.log_level);
-  AtomicDir out(options.out, OutputGuard{"relit-capture", options.force,
-                                         {options.view, options.light, options.geometry}});
-  const fs::path root = out.path();
-  LogFileScope log_scope((root / "capture.log").string(), level);
-  RunRecord record("relit-capture");
-  record.SetOptions(OptionsToJson(options));
-  record.AddInput("view", options.view);
-  record.AddInput("light", options.light);
-  if (!options.geometry.empty()) record.AddInput("geometry", options.geometry);
+  std::vector<int> LightSources() const {
+    std::vector<int> sources;
+    for (const auto& [source, index] : light_index) sources.push_back(source);
+    return sources;
+  }
+};
 
-  // Cheap checks of every input first, so bad input fails before decoding.
-  AnalysedVideo view, light;
-  SyncResult sync;
-  {
-    auto timer = record.Time("probe");
-    ProbeVideo(options.light, kLightRole);  // fail on a bad phone L file before hashing phone V
-    view = PrepareInput(options.view, kViewRole, options);
-    light = PrepareInput(options.light, kLightRole, options);
-    RELIT_REQUIRE(view.fingerprint.size_bytes != light.fingerprint.size_bytes ||
-                      view.fingerprint.fnv1a64 != light.fingerprint.fnv1a64, "--view ", options.view, " and --light ",
-                  options.light, " are the same video: phone V (no flash) and phone L (flash on) each "
-                  "film their own video; give both files");
-    if (!options.geometry.empty() && !fs::is_directory(options.geometry)) {
-      ProbeVideo(options.geometry, kGeometryRole);
-    }
+// Cheap checks of every input first, so bad input fails before decoding.
+void ProbeInputs(const CaptureOptions& options, AnalysedVideo* view, AnalysedVideo* light) {
+  ProbeVideo(options.light, kLightRole);  // fail on a bad phone L file before hashing phone V
+  *view = PrepareInput(options.view, kViewRole, options);
+  *light = PrepareInput(options.light, kLightRole, options);
+  RELIT_REQUIRE(view->fingerprint.size_bytes != light->fingerprint.size_bytes ||
+                    view->fingerprint.fnv1a64 != light->fingerprint.fnv1a64, "--view ", options.view, " and --light ",
+                options.light, " are the same video: phone V (no flash) and phone L (flash on) each "
+                "film their own video; give both files");
+  if (!options.geometry.empty() && !fs::is_directory(options.geometry)) {
+    ProbeVideo(options.geometry, kGeometryRole);
   }
-  {
-    auto timer = record.Time("sync");
-    sync = Synchronise(view.info, light.info, options.sync);
-  }
-  {
-    auto timer = record.Time("analyse");
-    AnalyseFrames(&view, options, options.view_select, "analyse view");
-    AnalyseFrames(&light, options, options.view_select, "analyse light");
-  }
+}
 
-  // Phone L frames on the common clock (phone V's).
+// Puts phone L's frames on the common clock (phone V's) and returns their
+// times; fails when the two videos do not overlap.
+std::vector<double> PutLightOnViewClock(const CaptureOptions& options, const SyncResult& sync,
+                                        const AnalysedVideo& view, AnalysedVideo* light) {
   std::vector<double> light_times;
-  for (Candidate& c : light.frames) {
+  for (Candidate& c : light->frames) {
     c.time_s = sync.ToViewTime(c.source_time_s);
     light_times.push_back(c.time_s);
   }
@@ -223,44 +214,40 @@ CaptureSummary RunCaptureImpl(const CaptureOptions& options) {
                 " s on phone V's clock, offset ", sync.offset_s,
                 " s) do not overlap in time: check --offset-s, or that ", options.view, " and ",
                 options.light, " were filmed together");
+  return light_times;
+}
 
-  // Frame selection on phone V; the phone L frames follow from it.
-  std::vector<int> view_sources;
-  std::vector<std::vector<int>> light_of_view;
-  std::map<int, int> light_index;  // phone L source frame -> output index
-  {
-    auto timer = record.Time("select");
-    RejectBadFrames(&view.frames, options.view_select);
-    for (Candidate& c : view.frames) {
-      if (c.rejection.empty() && LightFramesAround(c.time_s, light_times, per_side).empty()) {
-        c.rejection = kNoLight;
-      }
+// Frame selection on phone V; the phone L frames follow from it.
+Selection SelectFrames(const CaptureOptions& options, const std::vector<double>& light_times, AnalysedVideo* view) {
+  const int per_side = options.light_frames_per_side;
+  RejectBadFrames(&view->frames, options.view_select);
+  for (Candidate& c : view->frames) {
+    if (c.rejection.empty() && LightFramesAround(c.time_s, light_times, per_side).empty()) {
+      c.rejection = kNoLight;
     }
-    Subsample(&view.frames, options.view_select);
-    for (const Candidate& c : view.frames) {
-      if (!c.rejection.empty()) continue;
-      view_sources.push_back(c.source_frame);
-      light_of_view.push_back(LightFramesAround(c.time_s, light_times, per_side));
-      for (int l : light_of_view.back()) light_index[l] = 0;
-    }
-    RELIT_REQUIRE(!view_sources.empty(), "no phone V frame left after rejection (",
-                  RejectionSummary(view.frames), " of ", view.frames.size(),
-                  " frames): film again following docs/capture.md, or relax view_select "
-                  "(min_blur_ratio, max_dark_fraction, max_clipped_fraction) in the --config file");
-    int next = 0;
-    for (auto& [source, index] : light_index) index = next++;
-    spdlog::info("select: phone V {}; phone L: {} frames needed", RejectionSummary(view.frames),
-                 light_index.size());
   }
-
-  std::vector<int> light_sources;
-  for (const auto& [source, index] : light_index) light_sources.push_back(source);
-  {
-    auto timer = record.Time("write");
-    WriteFrames(view, view_sources, options, root, "view", "view_linear", "write view");
-    WriteFrames(light, light_sources, options, root, "light", "", "write light");
+  Subsample(&view->frames, options.view_select);
+  Selection selection;
+  for (const Candidate& c : view->frames) {
+    if (!c.rejection.empty()) continue;
+    selection.view_sources.push_back(c.source_frame);
+    selection.light_of_view.push_back(LightFramesAround(c.time_s, light_times, per_side));
+    for (int l : selection.light_of_view.back()) selection.light_index[l] = 0;
   }
+  RELIT_REQUIRE(!selection.view_sources.empty(), "no phone V frame left after rejection (",
+                RejectionSummary(view->frames), " of ", view->frames.size(),
+                " frames): film again following docs/capture.md, or relax view_select "
+                "(min_blur_ratio, max_dark_fraction, max_clipped_fraction) in the --config file");
+  int next = 0;
+  for (auto& [source, index] : selection.light_index) index = next++;
+  spdlog::info("select: phone V {}; phone L: {} frames needed", RejectionSummary(view->frames),
+               selection.light_index.size());
+  return selection;
+}
 
+// capture.json without the geometry pass, the options and the timings.
+nlohmann::json CaptureJson(const CaptureOptions& options, const AnalysedVideo& view, const AnalysedVideo& light,
+                           const SyncResult& sync, const Selection& selection) {
   nlohmann::json capture;
   capture["tool"] = "relit-capture";
   capture["version"] = RelitVersion();
@@ -282,13 +269,13 @@ CaptureSummary RunCaptureImpl(const CaptureOptions& options) {
     j["image"] = FramePath("view", static_cast<int>(k), options.copy_format);
     j["linear"] = FramePath("view_linear", static_cast<int>(k), "exr");
     nlohmann::json lights = nlohmann::json::array();
-    for (int l : light_of_view[k]) lights.push_back(light_index.at(l));
+    for (int l : selection.light_of_view[k]) lights.push_back(selection.light_index.at(l));
     j["light_frames"] = lights;
     view_frames.push_back(j);
     ++k;
   }
   nlohmann::json light_frames = nlohmann::json::array();
-  for (const auto& [source, index] : light_index) {
+  for (const auto& [source, index] : selection.light_index) {
     nlohmann::json j = ScoreJson(light.frames[source]);
     j["index"] = index;
     j["image"] = FramePath("light", index, options.copy_format);
@@ -301,36 +288,65 @@ CaptureSummary RunCaptureImpl(const CaptureOptions& options) {
                        {"light_usable", light.frames.size()},
                        {"light_kept", light_frames.size()}};
   capture["geometry_frames"] = nlohmann::json::array();
+  return capture;
+}
+
+}  // namespace
+
+CaptureSummary RunCaptureImpl(const CaptureOptions& options) {
+  CheckOptions(options);
+  const auto start = std::chrono::steady_clock::now();
+  StageRun run({"relit-capture", options.out, options.force, {options.view, options.light, options.geometry}, "--out",
+                "capture.log", ParseLogLevel(options.log_level)});
+  RunRecord& record = run.record();
+  record.SetOptions(OptionsToJson(options));
+  record.AddInput("view", options.view);
+  record.AddInput("light", options.light);
+  if (!options.geometry.empty()) record.AddInput("geometry", options.geometry);
+
+  AnalysedVideo view, light;
+  run.Step("probe", [&] { ProbeInputs(options, &view, &light); });
+  const SyncResult sync = run.Step("sync", [&] { return Synchronise(view.info, light.info, options.sync); });
+  run.Step("analyse", [&] {
+    AnalyseFrames(&view, options, options.view_select, "analyse view");
+    AnalyseFrames(&light, options, options.view_select, "analyse light");
+  });
+  const std::vector<double> light_times = PutLightOnViewClock(options, sync, view, &light);
+  const Selection selection = run.Step("select", [&] { return SelectFrames(options, light_times, &view); });
+  const std::vector<int> light_sources = selection.LightSources();
+  run.Step("write", [&] {
+    WriteFrames(view, selection.view_sources, options, run.path(), "view", "view_linear", "write view");
+    WriteFrames(light, light_sources, options, run.path(), "light", "", "write light");
+  });
+
+  nlohmann::json capture = CaptureJson(options, view, light, sync, selection);
   CaptureSummary summary;
   if (!options.geometry.empty()) {
-    CaptureGeometry(options, root, &record, &capture, &summary.geometry_frames_kept);
+    CaptureGeometry(options, run.path(), &record, &capture, &summary.geometry_frames_kept);
   }
   capture["options"] = OptionsToJson(options);
   // The only field that differs between reruns with the same inputs.
   capture["timings_s"] = record.ToJson()["timings_s"];
-  WriteJsonFile((root / "capture.json").string(), kCaptureKind, kCaptureVersion, capture);
+  WriteJsonFile((run.path() / "capture.json").string(), kCaptureKind, kCaptureVersion, capture);
+  summary.out_dir = options.out;
+  summary.view_frames_decoded = view.frames_decoded;
+  summary.view_frames_kept = static_cast<int>(selection.view_sources.size());
+  summary.light_frames_kept = static_cast<int>(light_sources.size());
+  summary.sync_method = sync.method;
+  summary.offset_s = sync.offset_s;
+  summary.confidence = sync.confidence;
+  summary.seconds = SecondsSince(start);
   record.Set("offset_s", sync.offset_s);
   record.Set("drift_ms_per_min", sync.drift.valid ? nlohmann::json(sync.drift.ms_per_min())
                                                   : nlohmann::json(nullptr));
   record.Set("drift_corrected", sync.drift_corrected);
-  record.Set("view_frames_kept", view_sources.size());
-  record.Set("light_frames_kept", light_sources.size());
-  record.Write((root / "run.json").string());
-
-  summary.out_dir = options.out;
-  summary.sync_method = sync.method;
-  summary.offset_s = sync.offset_s;
-  summary.confidence = sync.confidence;
-  summary.view_frames_decoded = view.frames_decoded;
-  summary.view_frames_kept = static_cast<int>(view_sources.size());
-  summary.light_frames_kept = static_cast<int>(light_sources.size());
-  summary.seconds = SecondsSince(start);
+  record.Set("view_frames_kept", summary.view_frames_kept);
+  record.Set("light_frames_kept", summary.light_frames_kept);
   spdlog::info("relit-capture: wrote {} ({} phone V frames, {} phone L frames, {} geometry "
                "frames, offset {:+.6f} s) in {:.1f} s", options.out, summary.view_frames_kept,
                summary.light_frames_kept, summary.geometry_frames_kept, summary.offset_s,
                summary.seconds);
-  InitLogging("", level);  // close the log file before the folder moves
-  out.Commit();
+  run.Commit();
   return summary;
 }
 
@@ -366,16 +382,8 @@ int RunCapture(int argc, char** argv) {
   bool force = false;
   app.add_flag("--force", force,
                "replace an --out folder that relit-capture did not write (never one holding an input)");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
-  CaptureOptions options;
-  if (!config.empty()) {
-    OptionsReader reader = OptionsReader::FromFile(config);
-    ReadOptions(reader, &options);
-  }
+  CLI11_PARSE(app, argc, argv);
+  CaptureOptions options = ReadOptionsFile<CaptureOptions>(config);
   if (!view.empty()) options.view = view;
   if (!light.empty()) options.light = light;
   if (!geometry.empty()) options.geometry = geometry;
@@ -392,13 +400,8 @@ int RunCapture(int argc, char** argv) {
   }
   if (long_side->count() > 0) options.max_long_side_px = max_long_side_px;
   if (allow_partial) options.allow_partial = true;
-  options.force = force;
   if (correct_drift) options.sync.correct_drift = true;
-  if (!log_level.empty()) options.log_level = log_level;
-  SetVerbosity(ParseLogLevel(options.log_level));
-  CheckOptions(options);
-  RunCaptureImpl(options);
-  return 0;
+  return RunStageCommand(std::move(options), force, log_level, RunCaptureImpl);
 }
 
 }  // namespace relit::capture

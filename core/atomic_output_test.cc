@@ -9,33 +9,20 @@
 #include <unistd.h>
 
 #include "core/error.h"
+#include "core/test_dir.h"
 
 namespace relit {
 namespace {
 
 namespace fs = std::filesystem;
 
-// A fresh directory per test, removed afterwards.
-class AtomicOutputTest : public testing::Test {
- protected:
-  void SetUp() override {
-    const auto* info = testing::UnitTest::GetInstance()->current_test_info();
-    root_ = fs::temp_directory_path() /
-            ("relit_atomic_" + std::string(info->name()) + "_" + std::to_string(getpid()));
-    fs::remove_all(root_);
-    fs::create_directories(root_);
-  }
-  void TearDown() override { fs::remove_all(root_); }
+using test_support::ReadText;
+using test_support::WriteText;
 
-  static std::string ReadText(const fs::path& path) {
-    std::ifstream stream(path);
-    std::ostringstream text;
-    text << stream.rdbuf();
-    return text.str();
-  }
-  static void WriteText(const fs::path& path, const std::string& text) {
-    std::ofstream(path) << text;
-  }
+class AtomicOutputTest : public test_support::TempDirTest {
+ protected:
+  AtomicOutputTest() : TempDirTest("relit_atomic_") {}
+
   // Names in root_ starting with ".", i.e. temporaries.
   int CountHidden() const {
     int count = 0;
@@ -44,8 +31,6 @@ class AtomicOutputTest : public testing::Test {
     }
     return count;
   }
-
-  fs::path root_;
 };
 
 TEST_F(AtomicOutputTest, WriteFileCreatesParentsAndReplaces) {

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "core/error.h"
+#include "core/test_dir.h"
 
 namespace relit {
 namespace {
@@ -21,27 +22,14 @@ testing::AssertionResult Contains(const std::string& text, const std::string& pa
   return testing::AssertionFailure() << "'" << part << "' not found in: " << text;
 }
 
-class JsonFileTest : public testing::Test {
+using test_support::ReadText;
+using test_support::WriteText;
+
+class JsonFileTest : public test_support::TempDirTest {
  protected:
-  void SetUp() override {
-    const auto* info = testing::UnitTest::GetInstance()->current_test_info();
-    root_ = fs::temp_directory_path() /
-            ("relit_json_" + std::string(info->name()) + "_" + std::to_string(getpid()));
-    fs::remove_all(root_);
-    fs::create_directories(root_);
-  }
-  void TearDown() override { fs::remove_all(root_); }
+  JsonFileTest() : TempDirTest("relit_json_") {}
 
   std::string Path(const std::string& name) const { return (root_ / name).string(); }
-  static void WriteText(const std::string& path, const std::string& text) {
-    std::ofstream(path) << text;
-  }
-  static std::string ReadText(const std::string& path) {
-    std::ifstream stream(path);
-    std::ostringstream text;
-    text << stream.rdbuf();
-    return text.str();
-  }
   // The message of the relit::Error thrown by ReadJsonFile.
   static std::string ReadError(const std::string& path, const std::string& kind, int version) {
     try {
@@ -52,8 +40,6 @@ class JsonFileTest : public testing::Test {
     ADD_FAILURE() << "expected relit::Error for " << path;
     return "";
   }
-
-  fs::path root_;
 };
 
 TEST_F(JsonFileTest, SchemaString) { EXPECT_EQ(SchemaString("cameras", 2), "relit.cameras/2"); }

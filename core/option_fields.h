@@ -288,6 +288,17 @@ void ReadOptions(OptionsReader& reader, S* options) {
   S::Fields().Read(reader, options);
 }
 
+// A command line's options: the defaults, then the --config file when one
+// is given ("" = none). Flags go on top, then CheckOptions().
+template <typename S>
+S ReadOptionsFile(const std::string& config) {
+  S options;
+  if (config.empty()) return options;
+  OptionsReader reader = OptionsReader::FromFile(config);
+  ReadOptions(reader, &options);
+  return options;
+}
+
 template <typename S>
 void CheckOptions(const S& options, const std::string& context = "") {
   S::Fields().Check(options, context);
@@ -298,17 +309,21 @@ nlohmann::json OptionsToJson(const S& options) {
   return S::Fields().ToJson(options);
 }
 
-// The docs' reference table of S (defaults from S{}): a Markdown table
-// "| key | default | range | meaning |", keys below `prefix`, then a line
-// listing the moved keys, if any.
+// The docs' reference table of S (defaults from `defaults`, S{} unless
+// given): a Markdown table "| key | default | range | meaning |", keys below
+// `prefix`, then a line listing the moved keys, if any.
 std::string OptionsMarkdownTable(const std::vector<OptionDocRow>& rows,
                                  const std::vector<std::pair<std::string, std::string>>& moved);
 template <typename S>
-std::string OptionsMarkdown(const std::string& prefix = "") {
+std::string OptionsMarkdown(const S& defaults, const std::string& prefix = "") {
   std::vector<OptionDocRow> rows;
   std::vector<std::pair<std::string, std::string>> moved;
-  S::Fields().AppendRows(S{}, prefix, &rows, &moved);
+  S::Fields().AppendRows(defaults, prefix, &rows, &moved);
   return OptionsMarkdownTable(rows, moved);
+}
+template <typename S>
+std::string OptionsMarkdown(const std::string& prefix = "") {
+  return OptionsMarkdown(S{}, prefix);
 }
 
 }  // namespace relit

@@ -51,11 +51,7 @@ int RunRelit(int argc, char** argv) {
 
   // `relit run --log-level L` (docs/pipeline.md) as well as `relit --log-level L run`.
   for (CLI::App* sub : {run, status}) sub->add_option("--log-level", log_level, "trace | debug | info | warn | error");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
+  CLI11_PARSE(app, argc, argv);
   SetVerbosity(ParseLogLevel(log_level));
 
   if (init->parsed()) {

@@ -27,19 +27,8 @@ namespace fs = std::filesystem;
 constexpr int kViewFrames = 2;
 constexpr int kGeometryFrames = 20;
 
-struct WorkspaceHolder {
-  testing::TestWorkspace ws = testing::MakeTestWorkspace(
-      ::testing::TempDir() + "/reconstruct_dense_ws_" + std::to_string(getpid()), kViewFrames, 16, 0.003,
-      kGeometryFrames);
-  ~WorkspaceHolder() {
-    std::error_code ignored;
-    fs::remove_all(ws.dir, ignored);
-  }
-};
-
 const testing::TestWorkspace& Workspace() {
-  static const WorkspaceHolder holder;
-  return holder.ws;
+  return testing::SharedTestWorkspace("reconstruct_dense_ws", kViewFrames, 16, 0.003, kGeometryFrames);
 }
 
 // Chamfer, topology and the board check of the proxy the stage wrote.

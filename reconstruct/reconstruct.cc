@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <mutex>
+#include <utility>
 
 #include <CLI/CLI.hpp>
 #include <opencv2/imgproc.hpp>
@@ -20,6 +21,7 @@
 #include "core/progress.h"
 #include "core/render/scene.h"
 #include "core/run_record.h"
+#include "core/stage_run.h"
 #include "core/workspace.h"
 #include "reconstruct/closed_form_matting.h"
 #include "reconstruct/mesh_cleanup.h"
@@ -41,35 +43,21 @@ std::string FileStem(const std::string& frame_name) {
   return stem;
 }
 
-}  // namespace
-
-ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
-  CheckOptions(options);
-  const auto start = std::chrono::steady_clock::now();
-  const spdlog::level::level_enum level = ParseLogLevel(options.log_level);
-  const fs::path workspace(options.workspace);
-  const std::string cameras_path = (workspace / "calib" / "cameras.json").string();
-  const CamerasFile cameras = ReadCamerasFile(cameras_path);
+// The phone V frames calib undistorted: the ones a matte can be made for.
+std::vector<const CalibratedFrame*> UndistortedViewFrames(const CamerasFile& cameras, const std::string& cameras_path) {
   std::vector<const CalibratedFrame*> frames;
   for (const CalibratedFrame* f : cameras.FramesOf("view")) {
     if (!f->image_8bit.empty()) frames.push_back(f);
   }
   RELIT_REQUIRE(!frames.empty(), "reconstruct: ", cameras_path, " has no phone V frame with an undistorted image");
+  return frames;
+}
 
-  AtomicDir out(workspace / "reconstruct", OutputGuard{"relit-reconstruct", options.force, {options.mesh}},
-                "--workspace");
-  const fs::path root = out.path();
-  LogFileScope log_scope((root / "reconstruct.log").string(), level);
-  RunRecord record("relit-reconstruct");
-  record.SetOptions(OptionsToJson(options));
-  record.AddInput("cameras", cameras_path);
-  nlohmann::json report;
-  ReconstructSummary summary;
-
-  // 1. Proxy mesh.
-  const CropRegion crop = CropFromCameras(cameras, frames, options.cleanup);
-  spdlog::info("crop: centre ({:.3f}, {:.3f}) m, radius {:.3f} m, above z = {:.4f} m", crop.centre_xy.x(),
-               crop.centre_xy.y(), crop.radius_m, options.cleanup.crop_margin_m);
+// 1. The proxy mesh: loaded, or built from the images; cleaned up, then
+// refined against the depth maps when the build made any.
+render::TriangleMesh BuildProxy(const fs::path& workspace, const CamerasFile& cameras, const CropRegion& crop,
+                                const ReconstructOptions& options, StageRun& run, nlohmann::json* report) {
+  RunRecord& record = run.record();
   render::TriangleMesh input;
   const bool refine = options.refine.enabled && options.refine.iterations > 0;
   DepthEvidence evidence;  // only gathered when the refinement will use it
@@ -78,49 +66,44 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
     auto timer = record.Time("load_mesh");
     input = render::LoadMesh(options.mesh);
     input.Check(options.mesh + " (--mesh)");  // name the file, not just "input mesh"
-    report["proxy"] = {{"method", "mesh"}, {"mesh", options.mesh}};
+    (*report)["proxy"] = {{"method", "mesh"}, {"mesh", options.mesh}};
   } else {
     nlohmann::json proxy_report;
-    input = BuildProxyFromImages(workspace, cameras, crop, options.proxy, root / "proxy_points", &record,
+    input = BuildProxyFromImages(workspace, cameras, crop, options.proxy, run.path() / "proxy_points", &record,
                                  &proxy_report, refine ? &evidence : nullptr);
-    report["proxy"] = proxy_report;
+    (*report)["proxy"] = proxy_report;
     record.Set("proxy_method", proxy_report["method"]);
   }
   CleanupReport cleanup_report;
-  render::TriangleMesh proxy;
-  {
-    auto timer = record.Time("cleanup");
-    proxy = CleanupMesh(input, options.cleanup, crop, &cleanup_report);
+  render::TriangleMesh proxy =
+      run.Step("cleanup", [&] { return CleanupMesh(input, options.cleanup, crop, &cleanup_report); });
+  (*report)["cleanup"] = cleanup_report.ToJson();
+  if (!refine) return proxy;
+  if (evidence.empty()) {
+    spdlog::info("refine: skipped (the {} proxy has no depth maps to refine against)", options.proxy.method);
+    (*report)["refine"] = {{"skipped", "no depth maps (proxy.method " + options.proxy.method + ")"}};
+    return proxy;
   }
-  if (refine) {
-    if (evidence.empty()) {
-      spdlog::info("refine: skipped (the {} proxy has no depth maps to refine against)", options.proxy.method);
-      report["refine"] = {{"skipped", "no depth maps (proxy.method " + options.proxy.method + ")"}};
-    } else {
-      auto timer = record.Time("refine");
-      RefineReport refine_report;
-      proxy = RefineWithDepthMaps(proxy, evidence, options.refine, options.cleanup.crop_margin_m, &refine_report);
-      if (options.cleanup.remove_self_intersections) {  // moving vertices can fold the surface again
-        refine_report.self_intersection_faces_replaced =
-            RemoveSelfIntersections(&proxy, options.cleanup.self_intersection_rounds);
-      }
-      report["refine"] = refine_report.ToJson();
-    }
+  auto timer = record.Time("refine");
+  RefineReport refine_report;
+  proxy = RefineWithDepthMaps(proxy, evidence, options.refine, options.cleanup.crop_margin_m, &refine_report);
+  if (options.cleanup.remove_self_intersections) {  // moving vertices can fold the surface again
+    refine_report.self_intersection_faces_replaced =
+        RemoveSelfIntersections(&proxy, options.cleanup.self_intersection_rounds);
   }
-  evidence = DepthEvidence{};  // free the depth maps before matting
-  const MeshStats mesh_stats = AnalyseMesh(proxy);
-  if (!mesh_stats.closed() || !mesh_stats.manifold()) {
-    spdlog::warn("proxy: {} boundary edges, {} non-manifold edges, {} non-manifold vertices after cleanup",
-                 mesh_stats.boundary_edges, mesh_stats.non_manifold_edges, mesh_stats.non_manifold_vertices);
-  }
+  (*report)["refine"] = refine_report.ToJson();
+  return proxy;
+}
+
+// The UV atlas and proxy.obj (+ the preview); proxy.json's mesh fields.
+ProxyFile WriteProxyMesh(const render::TriangleMesh& proxy, const ReconstructOptions& options, StageRun& run,
+                         ReconstructSummary* summary, nlohmann::json* report) {
   AtlasStats atlas_stats;
-  UvAtlas atlas;
-  {
-    auto timer = record.Time("atlas");
-    atlas = BuildAtlas(proxy, options.atlas, &atlas_stats);
+  const UvAtlas atlas = run.Step("atlas", [&] { return BuildAtlas(proxy, options.atlas, &atlas_stats); });
+  WriteObjWithAtlas((run.path() / "proxy.obj").string(), proxy, atlas);
+  if (options.atlas.write_preview) {
+    WriteImage((run.path() / "atlas_preview.png").string(), AtlasPreview(proxy, atlas), PixelStorage::kUint8);
   }
-  WriteObjWithAtlas((root / "proxy.obj").string(), proxy, atlas);
-  if (options.atlas.write_preview) WriteImage((root / "atlas_preview.png").string(), AtlasPreview(proxy, atlas), PixelStorage::kUint8);
   ProxyFile proxy_file;
   proxy_file.mesh = "reconstruct/proxy.obj";
   proxy_file.atlas_resolution_px = options.atlas.resolution_px;
@@ -129,24 +112,75 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
   for (const Eigen::Vector3f& p : proxy.positions) {
     proxy_file.object_radius_m = std::max(proxy_file.object_radius_m, (p.cast<double>() - proxy_file.object_centre_m).norm());
   }
+  (*report)["atlas"] = atlas_stats.ToJson();
+  summary->charts = atlas.chart_count;
+  summary->atlas_utilisation = atlas_stats.utilisation;
+  return proxy_file;
+}
 
-  // 2. Trimaps and mattes, in parallel over frames.
+// At most max_matte_frames frames, evenly spread.
+std::vector<const CalibratedFrame*> MatteFrames(const std::vector<const CalibratedFrame*>& frames, int max_frames) {
+  if (max_frames <= 0 || static_cast<int>(frames.size()) <= max_frames) return frames;
+  std::vector<const CalibratedFrame*> picked;
+  for (int i = 0; i < max_frames; ++i) picked.push_back(frames[static_cast<size_t>(i) * frames.size() / max_frames]);
+  return picked;
+}
+
+// The trimap and closed-form matte of one frame; false (and a note in the
+// frame's report) where the proxy is not visible.
+bool MatteFrame(const fs::path& workspace, const fs::path& root, const CamerasFile& cameras,
+                const CalibratedFrame& frame, const render::Scene& scene, const Eigen::Vector3d& object_centre_m,
+                const ReconstructOptions& options, nlohmann::json* report) {
+  const Camera camera = cameras.ViewCamera(frame);
+  const cv::Mat silhouette = ProjectSilhouette(scene, camera);
+  nlohmann::json& fr = *report;
+  fr["view_frame"] = frame.name;
+  if (cv::countNonZero(silhouette) == 0) {
+    spdlog::warn("{}: the proxy is not visible; no matte", frame.name);
+    fr["skipped"] = "proxy not visible";
+    return false;
+  }
+  const double depth = (camera.cam_from_world() * object_centre_m).z();
+  const int band = TrimapBandPx(options.trimap, camera.intrinsics(), depth);
+  const cv::Mat trimap = MakeTrimap(silhouette, band);
+  const Image image = ReadImage((workspace / frame.image_8bit).string());
+  RELIT_REQUIRE(image.width() == silhouette.cols && image.height() == silhouette.rows && image.channels() >= 3,
+                "reconstruct: ", frame.image_8bit, " is ", image.width(), "x", image.height(), "x",
+                image.channels(), ", the undistorted camera is ", silhouette.cols, "x", silhouette.rows);
+  const cv::Mat colour = image.SelectChannels(std::vector<int>{0, 1, 2}).ToMat();
+  cv::Mat prior;
+  silhouette.convertTo(prior, CV_32F, 1.0 / 255.0);
+  MatteStats stats;
+  const cv::Mat alpha = SolveClosedFormMatte(colour, trimap, prior, options.matting, &stats);
+  const std::string stem = FileStem(frame.name);
+  Image trimap_image = Image::FromMat(trimap);
+  trimap_image.set_channel_names({"Y"});
+  WriteImage((root / "trimaps" / (stem + ".png")).string(), trimap_image, PixelStorage::kUint8);
+  Image matte_image = Image::FromMat(alpha);
+  matte_image.set_channel_names({"A"});
+  WriteImage((root / "mattes" / (stem + ".png")).string(), matte_image, PixelStorage::kUint16);
+  fr["band_px"] = band;
+  fr["unknown_px"] = stats.unknown_px;
+  fr["levels"] = stats.levels;
+  fr["seconds"] = stats.seconds;
+  return true;
+}
+
+// 2. Trimaps and mattes, in parallel over frames; their paths go into
+// proxy.json, the frames' reports into reconstruct_report.json.
+void WriteMattes(const fs::path& workspace, const CamerasFile& cameras, const std::vector<const CalibratedFrame*>& frames,
+                 const render::TriangleMesh& proxy, const ReconstructOptions& options, StageRun& run,
+                 ProxyFile* proxy_file, ReconstructSummary* summary, nlohmann::json* report) {
   render::Scene scene;
   scene.AddObject(proxy, render::Material::Lambert(render::Rgb::Constant(0.5f)), 1);
   scene.Commit();
-  std::vector<const CalibratedFrame*> matte_frames = frames;
-  if (options.max_matte_frames > 0 && static_cast<int>(frames.size()) > options.max_matte_frames) {
-    matte_frames.clear();
-    for (int i = 0; i < options.max_matte_frames; ++i) {
-      matte_frames.push_back(frames[static_cast<size_t>(i) * frames.size() / options.max_matte_frames]);
-    }
-  }
+  const std::vector<const CalibratedFrame*> matte_frames = MatteFrames(frames, options.max_matte_frames);
+  const fs::path root = run.path();
   fs::create_directories(root / "mattes");
   fs::create_directories(root / "trimaps");
   std::vector<nlohmann::json> frame_reports(matte_frames.size());
   std::vector<bool> matted(matte_frames.size(), false);
-  {
-    auto timer = record.Time("mattes");
+  run.Step("mattes", [&] {
     std::unique_ptr<tbb::global_control> threads;
     if (options.matting.threads > 0) {
       threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
@@ -154,80 +188,71 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
     }
     Progress progress("mattes", static_cast<int64_t>(matte_frames.size()));
     tbb::parallel_for(size_t(0), matte_frames.size(), [&](size_t i) {
-      const CalibratedFrame& frame = *matte_frames[i];
-      const Camera camera = cameras.ViewCamera(frame);
-      const cv::Mat silhouette = ProjectSilhouette(scene, camera);
-      nlohmann::json& fr = frame_reports[i];
-      fr["view_frame"] = frame.name;
-      if (cv::countNonZero(silhouette) == 0) {
-        spdlog::warn("{}: the proxy is not visible; no matte", frame.name);
-        fr["skipped"] = "proxy not visible";
-        progress.Advance();
-        return;
-      }
-      const double depth = (camera.cam_from_world() * proxy_file.object_centre_m).z();
-      const int band = TrimapBandPx(options.trimap, camera.intrinsics(), depth);
-      const cv::Mat trimap = MakeTrimap(silhouette, band);
-      const Image image = ReadImage((workspace / frame.image_8bit).string());
-      RELIT_REQUIRE(image.width() == silhouette.cols && image.height() == silhouette.rows && image.channels() >= 3,
-                    "reconstruct: ", frame.image_8bit, " is ", image.width(), "x", image.height(), "x",
-                    image.channels(), ", the undistorted camera is ", silhouette.cols, "x", silhouette.rows);
-      const cv::Mat colour = image.SelectChannels(std::vector<int>{0, 1, 2}).ToMat();
-      cv::Mat prior;
-      silhouette.convertTo(prior, CV_32F, 1.0 / 255.0);
-      MatteStats stats;
-      const cv::Mat alpha = SolveClosedFormMatte(colour, trimap, prior, options.matting, &stats);
-      const std::string stem = FileStem(frame.name);
-      Image trimap_image = Image::FromMat(trimap);
-      trimap_image.set_channel_names({"Y"});
-      WriteImage((root / "trimaps" / (stem + ".png")).string(), trimap_image, PixelStorage::kUint8);
-      Image matte_image = Image::FromMat(alpha);
-      matte_image.set_channel_names({"A"});
-      WriteImage((root / "mattes" / (stem + ".png")).string(), matte_image, PixelStorage::kUint16);
-      fr["band_px"] = band;
-      fr["unknown_px"] = stats.unknown_px;
-      fr["levels"] = stats.levels;
-      fr["seconds"] = stats.seconds;
-      matted[i] = true;
+      matted[i] = MatteFrame(workspace, root, cameras, *matte_frames[i], scene, proxy_file->object_centre_m, options,
+                             &frame_reports[i]);
       progress.Advance();
     });
-  }
+  });
   for (size_t i = 0; i < matte_frames.size(); ++i) {
     if (!matted[i]) {
-      ++summary.skipped_frames;
+      ++summary->skipped_frames;
       continue;
     }
     const std::string stem = FileStem(matte_frames[i]->name);
-    proxy_file.mattes.push_back({matte_frames[i]->name, "reconstruct/mattes/" + stem + ".png",
-                                 "reconstruct/trimaps/" + stem + ".png"});
+    proxy_file->mattes.push_back({matte_frames[i]->name, "reconstruct/mattes/" + stem + ".png",
+                                  "reconstruct/trimaps/" + stem + ".png"});
   }
-  RELIT_REQUIRE(!proxy_file.mattes.empty(), "reconstruct: the proxy is not visible in any phone V frame; "
+  RELIT_REQUIRE(!proxy_file->mattes.empty(), "reconstruct: the proxy is not visible in any phone V frame; "
                 "is the mesh in the board frame (metres, +Z up)?");
-  WriteProxyFile((root / "proxy.json").string(), proxy_file);
+  (*report)["frames"] = frame_reports;
+}
 
-  report["cleanup"] = cleanup_report.ToJson();
+}  // namespace
+
+ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
+  CheckOptions(options);
+  const auto start = std::chrono::steady_clock::now();
+  const fs::path workspace(options.workspace);
+  const std::string cameras_path = (workspace / "calib" / "cameras.json").string();
+  const CamerasFile cameras = ReadCamerasFile(cameras_path);
+  const std::vector<const CalibratedFrame*> frames = UndistortedViewFrames(cameras, cameras_path);
+  StageRun run({"relit-reconstruct", workspace / "reconstruct", options.force, {options.mesh}, "--workspace",
+                "reconstruct.log", ParseLogLevel(options.log_level)});
+  run.record().SetOptions(OptionsToJson(options));
+  run.record().AddInput("cameras", cameras_path);
+  nlohmann::json report;
+  ReconstructSummary summary;
+
+  const CropRegion crop = CropFromCameras(cameras, frames, options.cleanup);
+  spdlog::info("crop: centre ({:.3f}, {:.3f}) m, radius {:.3f} m, above z = {:.4f} m", crop.centre_xy.x(),
+               crop.centre_xy.y(), crop.radius_m, options.cleanup.crop_margin_m);
+  const render::TriangleMesh proxy = BuildProxy(workspace, cameras, crop, options, run, &report);
+  const MeshStats mesh_stats = AnalyseMesh(proxy);
+  if (!mesh_stats.closed() || !mesh_stats.manifold()) {
+    spdlog::warn("proxy: {} boundary edges, {} non-manifold edges, {} non-manifold vertices after cleanup",
+                 mesh_stats.boundary_edges, mesh_stats.non_manifold_edges, mesh_stats.non_manifold_vertices);
+  }
+  ProxyFile proxy_file = WriteProxyMesh(proxy, options, run, &summary, &report);
+  WriteMattes(workspace, cameras, frames, proxy, options, run, &proxy_file, &summary, &report);
+  WriteProxyFile((run.path() / "proxy.json").string(), proxy_file);
+
   report["mesh"] = mesh_stats.ToJson();
-  report["atlas"] = atlas_stats.ToJson();
   report["crop"] = {{"centre_xy_m", {crop.centre_xy.x(), crop.centre_xy.y()}}, {"radius_m", crop.radius_m}};
-  report["frames"] = frame_reports;
-  WriteJsonFile((root / "reconstruct_report.json").string(), kReportKind, kReportVersion, report);
+  WriteJsonFile((run.path() / "reconstruct_report.json").string(), kReportKind, kReportVersion, report);
 
   summary.faces = static_cast<int>(proxy.triangles.size());
-  summary.charts = atlas.chart_count;
-  summary.atlas_utilisation = atlas_stats.utilisation;
   summary.mattes = static_cast<int>(proxy_file.mattes.size());
   summary.seconds = SecondsSince(start);
+  RunRecord& record = run.record();
   record.Set("faces", summary.faces);
   record.Set("charts", summary.charts);
   record.Set("atlas_utilisation", summary.atlas_utilisation);
   record.Set("mattes", summary.mattes);
   record.Set("skipped_frames", summary.skipped_frames);
-  record.Write((root / "run.json").string());
   spdlog::info("reconstruct: {} faces, {} charts ({:.1f}% of the atlas), {} mattes in {:.1f} s", summary.faces,
                summary.charts, 100 * summary.atlas_utilisation, summary.mattes, summary.seconds);
-  InitLogging("", level);  // close the log file before the folder moves
-  out.Commit();
-  summary.out_dir = out.target().string();
+  run.Commit();
+  summary.out_dir = run.target().string();
   return summary;
 }
 
@@ -245,28 +270,15 @@ int RunReconstruct(int argc, char** argv) {
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
   bool force = false;
   app.add_flag("--force", force, "replace a W/reconstruct folder that relit-reconstruct did not write");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
-  ReconstructOptions options;
-  if (!config.empty()) {
-    OptionsReader reader = OptionsReader::FromFile(config);
-    ReadOptions(reader, &options);
-  }
+  CLI11_PARSE(app, argc, argv);
+  ReconstructOptions options = ReadOptionsFile<ReconstructOptions>(config);
   if (!workspace.empty()) options.workspace = workspace;
   if (!mesh.empty()) {
     options.mesh = mesh;
     options.proxy.method = "mesh";
   }
   if (!method.empty()) options.proxy.method = method;
-  options.force = force;
-  if (!log_level.empty()) options.log_level = log_level;
-  SetVerbosity(ParseLogLevel(options.log_level));
-  CheckOptions(options);
-  RunReconstructImpl(options);
-  return 0;
+  return RunStageCommand(std::move(options), force, log_level, RunReconstructImpl);
 }
 
 }  // namespace relit::reconstruct

@@ -24,21 +24,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Rendered once per process (CTest runs each test case in its own process,
-// maybe concurrently, hence the pid) and removed at exit.
-struct WorkspaceHolder {
-  testing::TestWorkspace ws = testing::MakeTestWorkspace(
-      ::testing::TempDir() + "/reconstruct_stage_ws_" + std::to_string(getpid()), 6, 16);
-  ~WorkspaceHolder() {
-    std::error_code ignored;
-    fs::remove_all(ws.dir, ignored);
-  }
-};
-
-const testing::TestWorkspace& Workspace() {
-  static const WorkspaceHolder holder;
-  return holder.ws;
-}
+const testing::TestWorkspace& Workspace() { return testing::SharedTestWorkspace("reconstruct_stage_ws", 6, 16); }
 
 TEST(ClosedFormMatting, RecoversASoftEdgeBetweenTwoColours) {
   const int w = 64, h = 48;

@@ -2,6 +2,11 @@
 
 #include <cmath>
 #include <filesystem>
+#include <string>
+#include <system_error>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "core/color.h"
 #include "core/image.h"
@@ -105,6 +110,26 @@ TestWorkspace MakeTestWorkspace(const std::string& dir, int frames, int samples_
   }
   WriteCamerasFile((fs::path(dir) / "calib" / "cameras.json").string(), ws.cameras);
   return ws;
+}
+
+namespace {
+
+struct SharedWorkspace {
+  TestWorkspace ws;
+  ~SharedWorkspace() {
+    std::error_code ignored;
+    fs::remove_all(ws.dir, ignored);
+  }
+};
+
+}  // namespace
+
+const TestWorkspace& SharedTestWorkspace(const std::string& name, int frames, int samples_per_pixel,
+                                         double rough_offset_m, int geometry_frames) {
+  static const SharedWorkspace shared{MakeTestWorkspace(::testing::TempDir() + "/" + name + "_" +
+                                                            std::to_string(getpid()),
+                                                        frames, samples_per_pixel, rough_offset_m, geometry_frames)};
+  return shared.ws;
 }
 
 Camera CameraLookingAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, int width, int height,

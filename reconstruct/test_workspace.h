@@ -33,6 +33,13 @@ struct TestWorkspace {
 TestWorkspace MakeTestWorkspace(const std::string& dir, int frames, int samples_per_pixel = 16,
                                 double rough_offset_m = 0.003, int geometry_frames = 0);
 
+// MakeTestWorkspace in ::testing::TempDir()/<name>_<pid>, rendered on the
+// first call of the process (CTest runs each test case in its own process,
+// maybe concurrently: hence the pid) and removed at exit. Later calls return
+// the same workspace whatever their arguments.
+const TestWorkspace& SharedTestWorkspace(const std::string& name, int frames, int samples_per_pixel = 16,
+                                         double rough_offset_m = 0.003, int geometry_frames = 0);
+
 // A pinhole camera (focal length focal_px, principal point at the image
 // centre, no distortion) at `eye` looking at `target`, image up = +Z: the
 // analytic test scenes' cameras.

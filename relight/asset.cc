@@ -9,6 +9,7 @@
 #include "core/image.h"
 #include "core/json_file.h"
 #include "core/run_record.h"
+#include "core/stage_run.h"
 #include "relight/checkpoint.h"
 #include "relight/sh_encoding.h"
 #include "relight/cue_stage.h"
@@ -83,7 +84,7 @@ void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRe
                  const OutputGuard* guard) {
   const AssetDescription asset = DescribeWorkspace(workspace);
   const Plan plan = ReadPlan((fs::path(workspace) / "relight" / "plan" / "plan.json").string());
-  AtomicDir out = guard ? AtomicDir(out_dir, *guard) : AtomicDir(out_dir);
+  StageRun out(guard ? AtomicDir(out_dir, *guard) : AtomicDir(out_dir), record, "export.json");
   const fs::path root = out.path();
   fs::copy_file(asset.mesh, root / "proxy.obj");
   json partitions = json::array();
@@ -156,7 +157,6 @@ void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRe
                   "Render it with `relit-render --asset THIS_FOLDER --views views.json --out DIR` (docs/relight.md\n"
                   "describes the views file: any pinhole camera, point / directional / environment / area light).\n");
   record.Set("partitions_exported", trained);
-  record.Write((root / "export.json").string());
   out.Commit();
   spdlog::info("export: {} partitions -> {}", trained, out.target().string());
 }

@@ -15,6 +15,7 @@
 #include "core/options.h"
 #include "core/progress.h"
 #include "core/run_record.h"
+#include "core/stage_run.h"
 #include "relight/asset.h"
 #include "relight/cue_stage.h"
 #include "relight/cue_texture_fit.h"
@@ -321,7 +322,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
   }
   const size_t view_count = selected.size();
 
-  AtomicDir out = guard ? AtomicDir(out_dir, *guard) : AtomicDir(out_dir);
+  StageRun out(guard ? AtomicDir(out_dir, *guard) : AtomicDir(out_dir), record);
   std::vector<EvalImageResult> results, floors;
   json zooms = json::array();  // truth | methods strips zoomed on the object, one per image
   Progress progress("eval", static_cast<int64_t>(view_count * truth.lights.size()));
@@ -438,7 +439,6 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
   WriteEvalReport(out.path().string(), results, methods, header, floors);
   record.Set("images", static_cast<int>(view_count * truth.lights.size()));
   record.Set("methods", methods);
-  record.Write((out.path() / "run.json").string());
   out.Commit();
   spdlog::info("eval: {} images x {} methods scored into {}", view_count * truth.lights.size(), methods.size(),
                out.target().string());

@@ -12,6 +12,7 @@
 #include "core/progress.h"
 #include "core/run_record.h"
 #include "core/workspace.h"
+#include "core/stage_run.h"
 #include "relight/cue_stage.h"
 
 namespace relit::relight {
@@ -204,14 +205,13 @@ void RunPlanStage(const std::string& workspace, const DatasetOptions& dataset,
     auto timer = record.Time("plan");
     plan = MakePlan(workspace, dataset, layout);
   }
-  AtomicDir out(fs::path(workspace) / "relight" / "plan");
+  StageRun out(AtomicDir(fs::path(workspace) / "relight" / "plan"), record);
   WritePlan((out.path() / "plan.json").string(), plan);
   int training = 0;
   for (const PlanFrame& f : plan.frames) training += f.validation ? 0 : 1;
   record.Set("frames", static_cast<int>(plan.frames.size()));
   record.Set("training_frames", training);
   record.Set("max_radiance", plan.max_radiance);
-  record.Write((out.path() / "run.json").string());
   out.Commit();
   for (const PlanPartition& p : plan.partitions) {
     spdlog::info("plan: partition {:2d}: {} training, {} validation frames", p.index, p.train_frames.size(),

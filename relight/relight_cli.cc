@@ -29,16 +29,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Keeps a step's log next to its outputs and detaches it at the end.
-struct LogFile {
-  LogFile(const fs::path& path, spdlog::level::level_enum level) : level_(level) {
-    fs::create_directories(path.parent_path());
-    InitLogging(path.string(), level);
-  }
-  ~LogFile() { InitLogging("", level_); }
-  spdlog::level::level_enum level_;
-};
-
 // Every trained checkpoint (point-light and augmented) against the config's
 // cues.input / cues.bases. Without a plan there is nothing to check yet (the
 // steps say what to run).
@@ -112,11 +102,7 @@ int RunRelight(int argc, char** argv) {
   for (CLI::App* sub : {render, eval, export_asset}) {
     sub->add_flag("--force", force, "replace an --out folder that relit did not write (never one holding an input)");
   }
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
+  CLI11_PARSE(app, argc, argv);
   if (compare->parsed()) {
     std::vector<CompareInput> inputs;
     for (const std::string& e : compare_evals) inputs.push_back(ParseCompareInput(e));
@@ -157,17 +143,19 @@ int RunRelight(int argc, char** argv) {
     RequireWorkspaceFormat(workspace, options.cues.Format());
   }
   if (cues->parsed()) {
-    LogFile log(relight_dir / "logs" / "cues.log", level);
+    LogFileScope log((relight_dir / "logs" / "cues.log").string(), level);
     RunCueStage(workspace, options.cues, record);
   } else if (plan->parsed()) {
-    LogFile log(relight_dir / "logs" / "plan.log", level);
+    LogFileScope log((relight_dir / "logs" / "plan.log").string(), level);
     RunPlanStage(workspace, options.dataset, options.partitions, record);
   } else if (train->parsed()) {
-    LogFile log(relight_dir / "logs" / ("train_" + PartitionDirName(std::max(partition, 0)) + ".log"), level);
+    const std::string name = "train_" + PartitionDirName(std::max(partition, 0)) + ".log";
+    LogFileScope log((relight_dir / "logs" / name).string(), level);
     const TrainStageResult result = RunTrainStage(workspace, partition, options.model, options.train, restart, record);
     if (result.interrupted) return 130;
   } else if (augment->parsed()) {
-    LogFile log(relight_dir / "logs" / ("augment_" + PartitionDirName(std::max(partition, 0)) + ".log"), level);
+    const std::string name = "augment_" + PartitionDirName(std::max(partition, 0)) + ".log";
+    LogFileScope log((relight_dir / "logs" / name).string(), level);
     const AugmentStageResult result = RunAugmentStage(workspace, partition, options.augment, options.train, restart, record);
     if (result.interrupted) return 130;
   } else if (render->parsed()) {
@@ -175,17 +163,17 @@ int RunRelight(int argc, char** argv) {
       RELIT_REQUIRE(!out.empty(), "render --views needs --out DIR");
       RunRenderViews(DescribeWorkspace(workspace), views, out, options.render, record, "", force);
     } else {
-      LogFile log(relight_dir / "logs" / "render.log", level);
+      LogFileScope log((relight_dir / "logs" / "render.log").string(), level);
       RunRenderStage(workspace, options.render, record);
     }
   } else if (eval->parsed()) {
-    LogFile log(relight_dir / "logs" / "eval.log", level);
+    LogFileScope log((relight_dir / "logs" / "eval.log").string(), level);
     const OutputGuard guard{"relit-relight eval", force, {workspace, truth}};
     RunEval(workspace, truth, out.empty() ? (relight_dir / "eval").string() : out, options.eval, options.render,
             record, out.empty() ? nullptr : &guard);
   }
   if (export_asset->parsed()) {
-    LogFile log(relight_dir / "logs" / "export.log", level);
+    LogFileScope log((relight_dir / "logs" / "export.log").string(), level);
     const std::string asset_dir = out.empty() ? (relight_dir / "export").string() : out;
     const OutputGuard guard{"relit-relight export", force, {workspace}};
     ExportAsset(workspace, asset_dir, record, out.empty() ? nullptr : &guard);

@@ -18,6 +18,7 @@
 #include "core/run_record.h"
 #include "core/shell.h"
 #include "core/workspace.h"
+#include "core/stage_run.h"
 #include "relight/checkpoint.h"
 #include "relight/cue_stage.h"
 #include "relight/dataset.h"
@@ -228,7 +229,7 @@ void RunRenderStage(const std::string& workspace, const RenderStageOptions& opti
       options.distance_scale > 0 ? options.distance_scale * asset.object_radius_m : asset.capture_distance_m;
   CueRenderSettings settings;
   settings.samples_per_pixel = options.samples_per_pixel;
-  AtomicDir out(fs::path(workspace) / "relight" / "render");
+  StageRun out(AtomicDir(fs::path(workspace) / "relight" / "render"), record, "render.json");
   const double flash = asset.flash_intensity;
   const render::EnvironmentLight environment =
       LoadEnvironment(options.environment_map, options.environment_scale * flash, 0.0, workspace);
@@ -267,7 +268,6 @@ void RunRenderStage(const std::string& workspace, const RenderStageOptions& opti
   }
   record.Set("turntables", turntables);
   record.Set("distance_m", distance);
-  record.Write((out.path() / "render.json").string());
   out.Commit();
   spdlog::info("render: turntables written to {}", out.target().string());
 }
@@ -309,7 +309,7 @@ void RunRenderViews(const AssetDescription& asset, const std::string& views_json
   }
   OutputGuard guard{"relit-render", force, {views_json, asset.mesh}};
   for (const std::string& model : asset.partition_models) guard.inputs.push_back(model);
-  AtomicDir out(out_dir, guard);
+  StageRun out(AtomicDir(out_dir, guard), record, "render.json");
   RelitRenderer renderer(asset, device);
   CueRenderSettings settings;
   settings.samples_per_pixel = options.samples_per_pixel;
@@ -323,7 +323,6 @@ void RunRenderViews(const AssetDescription& asset, const std::string& views_json
   }
   progress.Finish();
   record.Set("views", index);
-  record.Write((out.path() / "render.json").string());
   out.Commit();
 }
 
@@ -340,11 +339,7 @@ int RunRender(int argc, char** argv) {
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
   bool force = false;
   app.add_flag("--force", force, "replace an --out folder that relit-render did not write");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
+  CLI11_PARSE(app, argc, argv);
   SetVerbosity(ParseLogLevel(log_level));
   RenderStageOptions options;
   options.samples_per_pixel = samples;

@@ -74,11 +74,7 @@ int Run(int argc, char** argv) {
   app.add_option("--texture", texture_px, "neural texture resolution, px");
   app.add_option("--quality", quality_steps, "also train this many steps on the synthetic problem");
   app.add_option("--config", config_texts, "NGF,BLOCKS,CROP (mask net: NGF/2, BLOCKS/2)");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
+  CLI11_PARSE(app, argc, argv);
   std::vector<Config> configs = {{8, 2, 128}, {16, 3, 128}, {16, 6, 256}, {32, 6, 128},
                                  {32, 6, 256}, {32, 9, 256}, {64, 9, 256}};
   if (!config_texts.empty()) {

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <filesystem>
 #include <functional>
+#include <utility>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
@@ -13,6 +14,7 @@
 #include "core/options.h"
 #include "core/progress.h"
 #include "core/run_record.h"
+#include "core/stage_run.h"
 #include "report/sections.h"
 
 namespace relit::report {
@@ -28,16 +30,15 @@ bool IsNotRun(const Section& section) { return section.html.rfind("<div class=\"
 ReportSummary RunReportImpl(const ReportOptions& options) {
   CheckOptions(options);
   const auto start = std::chrono::steady_clock::now();
-  const spdlog::level::level_enum level = ParseLogLevel(options.log_level);
   const fs::path workspace(options.workspace);
   RELIT_REQUIRE(fs::is_directory(workspace), "relit-report: workspace ", workspace.string(),
                 " is not a folder (give the folder that holds capture/, calib/, ...)");
-  AtomicDir out(workspace / "report", OutputGuard{"relit-report", options.force, {}}, "--workspace");
-  LogFileScope log_scope((out.path() / "report.log").string(), level);
-  RunRecord record("relit-report");
+  StageRun run({"relit-report", workspace / "report", options.force, {}, "--workspace", "report.log",
+                ParseLogLevel(options.log_level)});
+  RunRecord& record = run.record();
   record.SetOptions(OptionsToJson(options));
 
-  ReportContext context(workspace, out.path(), options);
+  ReportContext context(workspace, run.path(), options);
   ReadObjectCentre(context);
   struct Builder {
     std::string id, title;  // the title is used when the section fails
@@ -82,7 +83,7 @@ ReportSummary RunReportImpl(const ReportOptions& options) {
     summary_html += Paragraph("Not run yet: " + list + ".");
   }
   summary_html += "</section>\n";
-  AtomicWriteFile(out.path() / "index.html",
+  AtomicWriteFile(run.path() / "index.html",
                   Page("relit report: " + fs::absolute(workspace).lexically_normal().filename().string(),
                        summary_html, sections));
   summary.warnings = context.warnings();
@@ -92,12 +93,10 @@ ReportSummary RunReportImpl(const ReportOptions& options) {
   record.Set("warnings", summary.warnings);
   record.Set("sections_not_run", summary.sections_not_run);
   record.Set("sections_failed", summary.sections_failed);
-  record.Write((out.path() / "run.json").string());
   spdlog::info("relit-report: wrote {} ({} warnings, not run yet: {}, unreadable: {}) in {:.1f} s",
                (workspace / "report" / "index.html").string(), summary.warnings.size(),
                summary.sections_not_run.size(), summary.sections_failed.size(), summary.seconds);
-  InitLogging("", level);  // close the log file before the folder moves
-  out.Commit();
+  run.Commit();
   summary.index_html = (workspace / "report" / "index.html").string();
   return summary;
 }
@@ -112,23 +111,10 @@ int RunReport(int argc, char** argv) {
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
   bool force = false;
   app.add_flag("--force", force, "replace a W/report folder that relit-report did not write");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
-  ReportOptions options;
-  if (!config.empty()) {
-    OptionsReader reader = OptionsReader::FromFile(config);
-    ReadOptions(reader, &options);
-  }
+  CLI11_PARSE(app, argc, argv);
+  ReportOptions options = ReadOptionsFile<ReportOptions>(config);
   if (!workspace.empty()) options.workspace = workspace;
-  if (!log_level.empty()) options.log_level = log_level;
-  options.force = force;
-  SetVerbosity(ParseLogLevel(options.log_level));
-  CheckOptions(options);
-  RunReportImpl(options);
-  return 0;
+  return RunStageCommand(std::move(options), force, log_level, RunReportImpl);
 }
 
 }  // namespace relit::report

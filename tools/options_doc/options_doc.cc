@@ -11,6 +11,7 @@
 #include "pipeline/config.h"
 #include "reconstruct/reconstruct_options.h"
 #include "report/report_options.h"
+#include "tools/synth/synth_options.h"
 
 namespace relit::options_doc {
 
@@ -37,11 +38,13 @@ std::map<std::string, std::string> GeneratedTables() {
           {"pipeline.inputs", OptionsMarkdown<pipeline::PipelineInputs>()},
           {"pipeline.board", OptionsMarkdown<BoardSpec>()},
           {"pipeline.run", OptionsMarkdown<pipeline::RunSettings>()},
-          {"pipeline.slurm", OptionsMarkdown<pipeline::SlurmOptions>()}};
+          {"pipeline.slurm", OptionsMarkdown<pipeline::SlurmOptions>()},
+          // relit-synth's defaults depend on the size: the table shows tiny's.
+          {"synth", OptionsMarkdown(synth::SynthOptions::ForSize("tiny"))}};
 }
 
 std::vector<std::string> DocsWithTables() {
-  return {"capture.md", "calib.md", "reconstruct.md", "report.md", "pipeline.md"};
+  return {"capture.md", "calib.md", "reconstruct.md", "report.md", "pipeline.md", "synthetic.md"};
 }
 
 std::string ReplaceGeneratedBlocks(const std::string& text, const std::map<std::string, std::string>& tables,

@@ -168,7 +168,7 @@ Intrinsics PhoneIntrinsics(int width_px, int height_px, double hfov_deg,
 }
 
 CapturePlan MakeCapturePlan(const SynthOptions& o, const SynthScene& scene) {
-  o.Check();
+  CheckOptions(o);
   CapturePlan plan;
   plan.view_intrinsics = PhoneIntrinsics(o.width_px, o.height_px, o.view_hfov_deg,
                                          o.view_principal_offset, o.view_distortion);

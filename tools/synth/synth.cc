@@ -293,10 +293,10 @@ Image RotatedForDisplay(const Image& image, int rotation_deg) {
 }
 
 SynthSummary RunSynthImpl(const SynthOptions& options) {
-  options.Check();
+  CheckOptions(options);
   const auto start = std::chrono::steady_clock::now();
   RunRecord record("relit-synth");
-  record.SetOptions(options.ToJson());
+  record.SetOptions(OptionsToJson(options));
   AtomicDir out(options.out);
   const fs::path root = out.path();
 
@@ -398,11 +398,7 @@ int RunSynth(int argc, char** argv) {
                  "board_clip/view and board_clip/light (calib's intrinsics.*_board_images)")
       ->check(CLI::Range(0, 1000));
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
+  CLI11_PARSE(app, argc, argv);
   SetVerbosity(ParseLogLevel(log_level));
 
   // Size defaults first (the size may come from the file), then the file, then flags.
@@ -419,7 +415,7 @@ int RunSynth(int argc, char** argv) {
   }
   if (chosen_size.empty()) chosen_size = "tiny";
   SynthOptions options = SynthOptions::ForSize(chosen_size);
-  if (reader) options.Read(*reader);
+  if (reader) ReadOptions(*reader, &options);
   options.size = chosen_size;
   if (!preset.empty()) options.preset = preset;
   if (!mesh.empty()) options.mesh_path = mesh;
@@ -430,7 +426,7 @@ int RunSynth(int argc, char** argv) {
   if (eval_only) options.eval_only = true;
   if (eval_views >= 0) options.eval_views = eval_views;
   if (board_clip >= 0) options.board_clip_frames = board_clip;
-  options.Check();
+  CheckOptions(options);
   RunSynthImpl(options);
   return 0;
 }

@@ -1,7 +1,7 @@
 // Options of relit-synth: preset, size, seed and every knob of the simulated
 // capture. Defaults depend on the size ("tiny", "demo", "full"): build with
-// SynthOptions::ForSize(), then Read() a YAML file on top (unknown keys are
-// errors), then Check().
+// SynthOptions::ForSize(), then ReadOptions() a YAML file on top (the field
+// table in synth_options.cc; unknown keys are errors), then CheckOptions().
 #pragma once
 
 #include <cstdint>
@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/board.h"
-#include "core/options.h"
+#include "core/option_fields.h"
 
 namespace relit::synth {
 
@@ -128,9 +128,8 @@ struct SynthOptions {
 
   // Defaults for a size; throws relit::Error for an unknown size.
   static SynthOptions ForSize(const std::string& size);
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<SynthOptions>& Fields();
+  void Check() const;  // across fields; ranges and choices: CheckOptions
 
   double duration_s() const { return static_cast<double>(frames_per_video) / fps; }
   int LightFrames() const { return light_frames_per_video > 0 ? light_frames_per_video : frames_per_video; }
@@ -143,6 +142,9 @@ struct SynthOptions {
   }
   // 29.97 -> 30000/1001 (NTSC-style rates), other rates unchanged.
   static double ExactFps(double fps);
+
+ private:
+  void CheckLenses() const;
 };
 
 std::vector<std::string> SizeNames();

@@ -2,6 +2,10 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -17,9 +21,16 @@ SynthOptions Valid() {
   return o;
 }
 
+// RunSynth with these arguments (argv[0] first).
+int RunSynthWith(std::vector<std::string> args) {
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  return RunSynth(static_cast<int>(argv.size()), argv.data());
+}
+
 void ExpectRejected(const SynthOptions& o, const std::string& fragment) {
   try {
-    o.Check();
+    CheckOptions(o);
     ADD_FAILURE() << "accepted options that should fail with '" << fragment << "'";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
@@ -30,7 +41,7 @@ TEST(SynthOptions, SizesAreValid) {
   for (const std::string& size : SizeNames()) {
     SynthOptions o = SynthOptions::ForSize(size);
     o.out = "x";
-    EXPECT_NO_THROW(o.Check()) << size;
+    EXPECT_NO_THROW(CheckOptions(o)) << size;
   }
   EXPECT_GE(SynthOptions::ForSize("full").width_px, 640);
   EXPECT_GE(SynthOptions::ForSize("full").frames_per_video, 300);
@@ -38,85 +49,61 @@ TEST(SynthOptions, SizesAreValid) {
 }
 
 TEST(SynthOptions, RejectsBadValues) {
-  SynthOptions o = Valid();
-  o.preset = "teapot";
-  ExpectRejected(o, "unknown preset 'teapot'");
-  o = Valid();
-  o.out = "";
-  ExpectRejected(o, "--out");
-  o = Valid();
-  o.width_px = 321;
-  ExpectRejected(o, "even");
-  o = Valid();
-  o.distance_min_m = 0.8;
-  ExpectRejected(o, "distance");
-  o = Valid();
-  o.elevation_min_deg = -10;
-  ExpectRejected(o, "upper hemisphere");
-  o = Valid();
-  o.audio_offset_max_s = 5;
-  ExpectRejected(o, "overlap");
-  o = Valid();
-  o.view_distortion = {0.1, 0.0};
-  ExpectRejected(o, "5 numbers");
-  o = Valid();
-  o.board.squares_y = 4;
-  ExpectRejected(o, "odd");
-  o = Valid();
-  o.display_rotation_deg = 45;
-  ExpectRejected(o, "display_rotation_deg");
-  o = Valid();
-  o.light_display_rotation_deg = 45;
-  ExpectRejected(o, "light_display_rotation_deg");
-  o = Valid();
-  o.light_width_px = 0;
-  ExpectRejected(o, "both be 0");
-  o = Valid();
-  o.light_width_px = 353;
-  ExpectRejected(o, "even");
-  o = Valid();
-  o.light_audio_start_s = 0.7;
-  ExpectRejected(o, "light_audio_start_s");
-  o = Valid();
-  o.view_rolling_shutter_s = 0.04;
-  ExpectRejected(o, "rolling_shutter_s");
-  o = Valid();
-  o.light_exposure_drift = 0.6;
-  ExpectRejected(o, "exposure_drift");
-  o = Valid();
-  o.truth_only = o.eval_only = true;
-  ExpectRejected(o, "exclude each other");
-  o = Valid();
-  o.eval_only = true;
-  o.eval_views = 0;
-  ExpectRejected(o, "eval_views > 0");
+  const std::vector<std::pair<std::function<void(SynthOptions&)>, std::string>> cases = {
+      {[](SynthOptions& o) { o.preset = "teapot"; }, "'teapot' is not one of"},
+      {[](SynthOptions& o) { o.out = ""; }, "--out"},
+      {[](SynthOptions& o) { o.width_px = 321; }, "even"},
+      {[](SynthOptions& o) { o.distance_min_m = 0.8; }, "distance"},
+      {[](SynthOptions& o) { o.elevation_min_deg = -10; }, "upper hemisphere"},
+      {[](SynthOptions& o) { o.audio_offset_max_s = 5; }, "overlap"},
+      {[](SynthOptions& o) { o.view_distortion = {0.1, 0.0}; }, "5 numbers"},
+      {[](SynthOptions& o) { o.board.squares_y = 4; }, "odd"},
+      {[](SynthOptions& o) { o.display_rotation_deg = 45; }, "display_rotation_deg"},
+      {[](SynthOptions& o) { o.light_display_rotation_deg = 45; }, "light_display_rotation_deg"},
+      {[](SynthOptions& o) { o.light_width_px = 0; }, "both be 0"},
+      {[](SynthOptions& o) { o.light_width_px = 353; }, "even"},
+      {[](SynthOptions& o) { o.light_audio_start_s = 0.7; }, "light_audio_start_s"},
+      {[](SynthOptions& o) { o.view_rolling_shutter_s = 0.04; }, "rolling_shutter_s"},
+      {[](SynthOptions& o) { o.light_exposure_drift = 0.6; }, "exposure_drift"},
+      {[](SynthOptions& o) { o.truth_only = o.eval_only = true; }, "exclude each other"},
+      {[](SynthOptions& o) {
+         o.eval_only = true;
+         o.eval_views = 0;
+       }, "eval_views > 0"},
+      {[](SynthOptions& o) { o.roll_max_deg = 50; }, "roll_max_deg"},
+      {[](SynthOptions& o) { o.exposure = 0; }, "exposure must be > 0"}};
+  for (const auto& [mutate, fragment] : cases) {
+    SynthOptions o = Valid();
+    mutate(o);
+    ExpectRejected(o, fragment);
+  }
 }
 
 TEST(SynthOptions, YamlUnknownKeysAndTypesAreErrors) {
   SynthOptions o = Valid();
   OptionsReader typo = OptionsReader::FromString("preset: bunny\nsamples_per_pixle: 3\n", "synth.yaml");
   try {
-    o.Read(typo);
+    ReadOptions(typo, &o);
     ADD_FAILURE() << "typo accepted";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("samples_per_pixle"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("synth.yaml:2"), std::string::npos) << e.what();
   }
   OptionsReader nested = OptionsReader::FromString("board:\n  squares: 5\n", "synth.yaml");
-  EXPECT_THROW(o.Read(nested), std::runtime_error);
+  EXPECT_THROW(ReadOptions(nested, &o), std::runtime_error);
   OptionsReader wrong_type = OptionsReader::FromString("width_px: wide\n", "synth.yaml");
-  EXPECT_THROW(o.Read(wrong_type), std::runtime_error);
+  EXPECT_THROW(ReadOptions(wrong_type, &o), std::runtime_error);
 
   OptionsReader good = OptionsReader::FromString(
       "preset: spheres\nseed: 5\nboard:\n  squares_x: 9\n  dictionary: DICT_APRILTAG_36h11\n", "synth.yaml");
   o = Valid();
-  o.Read(good);
+  ReadOptions(good, &o);
   EXPECT_EQ(o.preset, "spheres");
   EXPECT_EQ(o.seed, 5u);
   EXPECT_EQ(o.board.squares_x, 9);
   EXPECT_EQ(o.board.dictionary, "DICT_APRILTAG_36h11");
-  EXPECT_NO_THROW(o.Check());
-  EXPECT_EQ(o.ToJson()["board"]["squares_x"], 9);
+  EXPECT_NO_THROW(CheckOptions(o));
+  EXPECT_EQ(OptionsToJson(o)["board"]["squares_x"], 9);
 }
 
 TEST(SynthOptions, CommandLineRejectsBadInput) {
@@ -125,24 +112,9 @@ TEST(SynthOptions, CommandLineRejectsBadInput) {
   std::filesystem::create_directories(dir);
   const std::string config = dir + "/bad.yaml";
   std::ofstream(config) << "frames_per_vide: 10\n";
-  {
-    std::vector<std::string> args = {"relit-synth", "--config", config, "--out", dir + "/out"};
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    EXPECT_THROW(RunSynth(static_cast<int>(argv.size()), argv.data()), std::runtime_error);
-  }
-  {
-    std::vector<std::string> args = {"relit-synth", "--preset", "teapot", "--out", dir + "/out"};
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    EXPECT_THROW(RunSynth(static_cast<int>(argv.size()), argv.data()), std::runtime_error);
-  }
-  {
-    std::vector<std::string> args = {"relit-synth", "--size", "huge", "--out", dir + "/out"};
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    EXPECT_THROW(RunSynth(static_cast<int>(argv.size()), argv.data()), std::runtime_error);
-  }
+  EXPECT_THROW(RunSynthWith({"relit-synth", "--config", config, "--out", dir + "/out"}), std::runtime_error);
+  EXPECT_THROW(RunSynthWith({"relit-synth", "--preset", "teapot", "--out", dir + "/out"}), std::runtime_error);
+  EXPECT_THROW(RunSynthWith({"relit-synth", "--size", "huge", "--out", dir + "/out"}), std::runtime_error);
   EXPECT_FALSE(std::filesystem::exists(dir + "/out"));
   std::filesystem::remove_all(dir);
 }

@@ -197,7 +197,7 @@ TEST(CapturePlan, RollingShutterBandsSizesAndExposureDrift) {
   EXPECT_GT(high - low, 0.2);  // 33 frames over one period
   for (const FramePlan& frame : plan.view.frames) EXPECT_EQ(frame.exposure_scale, 1.0);
   options.light_rolling_shutter_s = 0.05;  // longer than a 29.97 fps frame
-  EXPECT_THROW(options.Check(), std::runtime_error);
+  EXPECT_THROW(CheckOptions(options), std::runtime_error);
 }
 
 }  // namespace
