@@ -33,6 +33,7 @@ BundleOptions ToBundleOptions(const CalibOptions& o, bool with_points) {
   BundleOptions b;
   b.huber_px = o.refine.huber_px;
   b.outlier_px = o.refine.outlier_px;
+  b.final_huber_px = o.refine.final_huber_px;
   b.point_weight = with_points ? o.sfm.point_weight : 0.0;
   b.max_iterations = o.refine.max_iterations;
   b.threads = o.sfm.threads;

@@ -58,7 +58,10 @@ const OptionFields<SfmOptions>& SfmOptions::Fields() {
           .Add("min_registered", &S::min_registered, 2, 100000, "fewer registered images: SfM failed")
           .Add("align_inlier_m", &S::align_inlier_m, 1e-5, 10.0, "camera-centre distance for the similarity RANSAC")
           .Add("point_weight", &S::point_weight, 0.0, 100.0, "SfM point residuals relative to board corners")
-          .Add("threads", &S::threads, 0, 1024, "0 = all cores");
+          .Add("threads", &S::threads, 0, 1024, "0 = all cores")
+          .Add("reuse_dir", &S::reuse_dir,
+               "a copy of a previous run's calib/sfm folder: its COLMAP model is read, no COLMAP step runs "
+               "(benchmarks of the refinement; same capture only)");
   return fields;
 }
 
@@ -72,6 +75,8 @@ const OptionFields<RefineOptions>& RefineOptions::Fields() {
       OptionFields<S>()
           .Add("huber_px", &S::huber_px, 1e-3, 100.0, "robust loss scale")
           .Add("outlier_px", &S::outlier_px, 0.1, 1000.0, "observations beyond this are dropped, then solved again")
+          .Add("final_huber_px", &S::final_huber_px, 0.0, 1000.0,
+               "robust loss scale of that second solve (0: huber_px)")
           .Add("max_iterations", &S::max_iterations, 1, 100000, "Ceres iterations")
           .Add("linear_solver", &S::linear_solver, {"auto", "dense_schur", "sparse_schur", "iterative_schur"},
                "Ceres linear solver (auto: dense Schur up to dense_schur_max_frames frames)")
