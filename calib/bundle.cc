@@ -293,13 +293,16 @@ BundleStats RefineBundle(BundleProblem* problem, const BundleOptions& options) {
   RELIT_CHECK(problem->corners_world.size() > 0);
   const auto start = std::chrono::steady_clock::now();
   Inliers inliers = AllInliers(*problem);
-  ceres::Solver::Summary first = Solve(problem, inliers, options);
+  BundleOptions first_options = options;
+  if (options.first_function_tolerance > 0) first_options.function_tolerance = options.first_function_tolerance;
+  ceres::Solver::Summary first = Solve(problem, inliers, first_options);
   Evaluate(*problem, options.outlier_px, &inliers);
   BundleOptions final_options = options;
   if (options.final_huber_px > 0) final_options.huber_px = options.final_huber_px;
   ceres::Solver::Summary second = Solve(problem, inliers, final_options);
   BundleStats stats = Evaluate(*problem, options.outlier_px, nullptr);
   stats.iterations = static_cast<int>(first.iterations.size() + second.iterations.size());
+  stats.final_iterations = static_cast<int>(second.iterations.size());
   stats.initial_cost = first.initial_cost;
   stats.final_cost = second.final_cost;
   stats.linear_solver = ceres::LinearSolverTypeToString(second.linear_solver_type_used);

@@ -40,6 +40,7 @@ BundleOptions ToBundleOptions(const CalibOptions& o, bool with_points) {
   b.linear_solver = o.refine.linear_solver;
   b.dense_schur_max_frames = o.refine.dense_schur_max_frames;
   b.function_tolerance = o.refine.function_tolerance;
+  b.first_function_tolerance = o.refine.first_function_tolerance;
   return b;
 }
 
@@ -52,6 +53,7 @@ nlohmann::json StatsJson(const BundleStats& s) {
           {"point_observations", s.point_observations},
           {"point_outliers", s.point_outliers},
           {"iterations", s.iterations},
+          {"final_iterations", s.final_iterations},
           {"linear_solver", s.linear_solver},
           {"solve_s", s.solve_s}};
 }

@@ -83,6 +83,8 @@ const OptionFields<RefineOptions>& RefineOptions::Fields() {
           .Add("dense_schur_max_frames", &S::dense_schur_max_frames, 0, 1000000, "auto's switch to sparse Schur")
           .Add("function_tolerance", &S::function_tolerance, 1e-16, 0.1,
                "Ceres stops when the cost changes by less than this fraction")
+          .Add("first_function_tolerance", &S::first_function_tolerance, 0.0, 0.1,
+               "the same for the first solve, before outliers are dropped (0: function_tolerance)")
           .Add("max_corner_rms_px", &S::max_corner_rms_px, 0.01, 1000.0, "board-corner RMS above this: rejected")
           .Add("max_ratio_error", &S::max_ratio_error, 0.001, 1.0,
                "|measured / specified marker-to-square ratio - 1| above this: rejected");

@@ -98,6 +98,9 @@ struct RefineOptions {
   // took a third of the time on the tiny capture at the same phone V
   // accuracy, but is unmeasured at scale (docs/calib.md).
   double function_tolerance = 1e-9;
+  // The same for the first solve, which only has to bring the outliers out
+  // (0: function_tolerance).
+  double first_function_tolerance = 0;
   double max_corner_rms_px = 1.0;  // board-corner RMS above this: calibration rejected
   double max_ratio_error = 0.04;   // |measured/specified marker-to-square ratio - 1|
 
