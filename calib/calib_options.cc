@@ -51,8 +51,6 @@ const OptionFields<SfmOptions>& SfmOptions::Fields() {
           .Add("sequential_overlap", &S::sequential_overlap, 1, 1000,
                "neighbours matched in each phone's frame order (incremental)")
           .Add("seeded_overlap", &S::seeded_overlap, 1, 1000, "the same for board_seeded")
-          .Add("seeded_light_overlap", &S::seeded_light_overlap, 1, 1000,
-               "phone L's neighbours in board_seeded (pairs beyond seeded_overlap imported as a list)")
           .Add("ransac_trials", &S::ransac_trials, 10, 1000000, "geometric verification trials per image pair")
           .Add("cross_pair_max_angle_deg", &S::cross_pair_max_angle_deg, 0.0, 180.0,
                "V/L frame pairs matched across phones within this angle")

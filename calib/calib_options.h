@@ -55,8 +55,8 @@ struct SfmOptions {
   // "incremental" (default): COLMAP's incremental mapper from scratch, then
   // aligned to the board; "board_seeded": frames with a good board pose
   // enter COLMAP with that pose (point_triangulator), image_registrator
-  // places the rest: 3.5x less COLMAP time at ~400 images, but phone L and
-  // the flash were 2.8 mm from truth against 1.6-1.7 mm (docs/calib.md).
+  // places the rest: COLMAP ~3x faster at ~400 images, but phone V ended
+  // 3-4 mm from truth against 1.5-1.7 mm (docs/calib.md).
   std::string mode = "incremental";
   int seed_min_corners = 6;        // board corners a frame needs to seed the model with its pose
   int max_features = 8192;         // SIFT features per image (COLMAP's default)
@@ -65,10 +65,6 @@ struct SfmOptions {
   // The same for board_seeded: the board poses tie the model together, so
   // fewer neighbours suffice (matching is most of COLMAP's time).
   int seeded_overlap = 3;
-  // Phone L's frames in board_seeded: matched with this many neighbours
-  // (the pairs beyond seeded_overlap are imported as a pair list). Its
-  // frames move fast and place the flash.
-  int seeded_light_overlap = 10;
   int ransac_trials = 1000;        // COLMAP geometric verification trials per image pair
   double cross_pair_max_angle_deg = 35.0;  // V/L frame pairs matched across phones
   int cross_pairs_per_frame = 4;
@@ -88,23 +84,25 @@ struct SfmOptions {
 struct RefineOptions {
   double huber_px = 1.0;           // robust loss scale
   double outlier_px = 3.0;         // observations beyond this are dropped, then solved again
-  // Huber scale of that second solve (0: huber_px). At outlier_px every
-  // inlier sits in Huber's quadratic part and Gauss-Newton converges in ~6
-  // iterations; at 1 px Ceres re-weights and converged linearly (100
-  // iterations at ~10 s each on ~300 frames), to the same poses.
-  double final_huber_px = 3.0;
+  // Huber scale of that second solve (0: huber_px). At outlier_px (3)
+  // every inlier is quadratic and Gauss-Newton converges in ~6 iterations
+  // instead of ~25, but phone L ended 0.5 mm further from truth at ~400
+  // images (docs/notes/calib-at-scale-2026-11-26.md).
+  double final_huber_px = 0;
   int max_iterations = 100;
   // Ceres linear solver: "auto" (dense Schur up to dense_schur_max_frames
   // frames, sparse Schur above), "dense_schur", "sparse_schur" or
   // "iterative_schur" (conjugate gradients, Schur-Jacobi preconditioner).
   std::string linear_solver = "auto";
-  int dense_schur_max_frames = 100;
-  // Ceres stops when the cost changes by less than this fraction (the
-  // second solve converges quadratically: 1e-9 costs ~2 more iterations).
-  double function_tolerance = 1e-9;
+  // At 312 frames dense Schur took 79 s against sparse 143 s (same run, same
+  // load): the reduced camera system is nearly dense (lenses, cross pairs).
+  int dense_schur_max_frames = 400;
+  // Ceres stops when the cost changes by less than this fraction. At ~400
+  // images 1e-6 (30 iterations in all) placed every device as 1e-9 did
+  // (100 + 100 iterations, unconverged).
+  double function_tolerance = 1e-6;
   // The same for the first solve, which only has to bring the outliers out
-  // (0: function_tolerance): 1e-4 took 7 iterations instead of 100 at
-  // ~300 frames, same accuracy (docs/notes/calib-at-scale-2026-11-26.md).
+  // (0: function_tolerance): 1e-4 took 6 iterations instead of 100.
   double first_function_tolerance = 1e-4;
   double max_corner_rms_px = 1.0;  // board-corner RMS above this: calibration rejected
   double max_ratio_error = 0.04;   // |measured/specified marker-to-square ratio - 1|

@@ -212,21 +212,6 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
       });
     }
   }
-  const size_t cross_pairs = pairs.size();
-  // Phone L moves fast and carries the flash: in board_seeded its frames
-  // are matched further along its sequence than the others, as extra pairs.
-  if (so.mode == "board_seeded" && so.seeded_light_overlap > overlap) {
-    std::vector<std::string> light;
-    for (const SfmImage& image : images) {
-      if (image.device == "light") light.push_back(image.name);
-    }
-    std::sort(light.begin(), light.end());  // the sequential matcher's order
-    for (size_t a = 0; a < light.size(); ++a) {
-      for (size_t b = a + overlap + 1; b < light.size() && b <= a + so.seeded_light_overlap; ++b) {
-        pairs.push_back({light[a], light[b]});
-      }
-    }
-  }
   // COLMAP extracts features per device with the device's fixed lens; the
   // geometry pass gets a camera of its own with phone V's parameters.
   std::map<std::string, Intrinsics> lenses = problem->devices;
@@ -316,8 +301,7 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
           {"models", sfm.models},
           {"model_sizes", sfm.model_sizes},
           {"verified_pairs", sfm.verified_pairs},
-          {"cross_phone_pairs", cross_pairs},
-          {"extra_light_pairs", pairs.size() - cross_pairs},
+          {"cross_phone_pairs", pairs.size()},
           {"points", points},
           {"frames_posed_by_sfm_only", sfm_only},
           {"alignment", {{"frames_with_both", src.size()},
