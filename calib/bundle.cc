@@ -133,6 +133,17 @@ void ConfigureSolver(const BundleOptions& o, int frames, ceres::Solver::Options*
   options->logging_type = ceres::SILENT;
 }
 
+// Per-iteration progress at trace level: which iterations buy what.
+class TraceIterations : public ceres::IterationCallback {
+ public:
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    spdlog::trace("bundle: iteration {} cost {:.6e} change {:.3e} step {:.3e} radius {:.2e} linear {} ({:.2f} s)",
+                  s.iteration, s.cost, s.cost_change, s.step_norm, s.trust_region_radius,
+                  s.linear_solver_iterations, s.iteration_time_in_seconds);
+    return ceres::SOLVER_CONTINUE;
+  }
+};
+
 ceres::Solver::Summary Solve(BundleProblem* p, const Inliers& inliers, const BundleOptions& o) {
   Blocks b = ToBlocks(*p);
   std::vector<std::array<double, 3>> points;
@@ -214,6 +225,8 @@ ceres::Solver::Summary Solve(BundleProblem* p, const Inliers& inliers, const Bun
       delete ordering;
     }
   }
+  TraceIterations trace;
+  if (spdlog::should_log(spdlog::level::trace)) options.callbacks.push_back(&trace);
   ceres::Solver::Summary summary;
   if (problem.NumResidualBlocks() > 0) ceres::Solve(options, &problem, &summary);
   FromBlocks(b, p);
@@ -280,11 +293,16 @@ BundleStats RefineBundle(BundleProblem* problem, const BundleOptions& options) {
   RELIT_CHECK(problem->corners_world.size() > 0);
   const auto start = std::chrono::steady_clock::now();
   Inliers inliers = AllInliers(*problem);
-  ceres::Solver::Summary first = Solve(problem, inliers, options);
+  BundleOptions first_options = options;
+  if (options.first_function_tolerance > 0) first_options.function_tolerance = options.first_function_tolerance;
+  ceres::Solver::Summary first = Solve(problem, inliers, first_options);
   Evaluate(*problem, options.outlier_px, &inliers);
-  ceres::Solver::Summary second = Solve(problem, inliers, options);
+  BundleOptions final_options = options;
+  if (options.final_huber_px > 0) final_options.huber_px = options.final_huber_px;
+  ceres::Solver::Summary second = Solve(problem, inliers, final_options);
   BundleStats stats = Evaluate(*problem, options.outlier_px, nullptr);
   stats.iterations = static_cast<int>(first.iterations.size() + second.iterations.size());
+  stats.final_iterations = static_cast<int>(second.iterations.size());
   stats.initial_cost = first.initial_cost;
   stats.final_cost = second.final_cost;
   stats.linear_solver = ceres::LinearSolverTypeToString(second.linear_solver_type_used);
@@ -292,7 +310,9 @@ BundleStats RefineBundle(BundleProblem* problem, const BundleOptions& options) {
   spdlog::info("bundle: {} frames, {} points, {} ({} + {} iterations, {:.1f} s)", problem->frames.size(),
                problem->points.size(), stats.linear_solver, first.iterations.size(), second.iterations.size(),
                stats.solve_s);
-  spdlog::debug("bundle: {}", second.BriefReport());
+  // Where the time goes (residual/Jacobian evaluation vs linear solver) and why Ceres stopped.
+  spdlog::debug("bundle: first solve: {}", first.FullReport());
+  spdlog::debug("bundle: second solve: {}", second.FullReport());
   return stats;
 }
 

@@ -46,14 +46,21 @@ struct BundleProblem {
 };
 
 struct BundleOptions {
-  double huber_px = 1.0;
+  double huber_px = 1.0;        // first solve: robust to the outliers still present
   double outlier_px = 3.0;
+  // Second solve, after the outliers are dropped (0: huber_px). At
+  // outlier_px every inlier sits in Huber's quadratic part: Gauss-Newton then
+  // converges quadratically instead of re-weighting for 100 iterations.
+  double final_huber_px = 0;
   double point_weight = 0.5;
   int max_iterations = 100;
   int threads = 0;
   std::string linear_solver = "auto";  // auto | dense_schur | sparse_schur | iterative_schur
   int dense_schur_max_frames = 100;    // auto: dense Schur up to this many posed frames
   double function_tolerance = 1e-6;
+  // First solve (0: function_tolerance): it only has to bring the outliers
+  // out for the second solve to drop.
+  double first_function_tolerance = 0;
 };
 
 struct BundleStats {
@@ -63,7 +70,8 @@ struct BundleStats {
   int corner_outliers = 0, point_outliers = 0;
   std::map<std::string, double> corner_rms_px_by_device;
   std::vector<double> frame_corner_rms_px;   // per frame (0 without corners)
-  int iterations = 0;
+  int iterations = 0;                    // both solves
+  int final_iterations = 0;              // the second solve
   double initial_cost = 0, final_cost = 0;
   std::string linear_solver;             // the one Ceres used
   double solve_s = 0;                    // both Ceres solves, wall time

@@ -35,12 +35,14 @@ BundleOptions ToBundleOptions(const CalibOptions& o, bool with_points) {
   BundleOptions b;
   b.huber_px = o.refine.huber_px;
   b.outlier_px = o.refine.outlier_px;
+  b.final_huber_px = o.refine.final_huber_px;
   b.point_weight = with_points ? o.sfm.point_weight : 0.0;
   b.max_iterations = o.refine.max_iterations;
   b.threads = o.sfm.threads;
   b.linear_solver = o.refine.linear_solver;
   b.dense_schur_max_frames = o.refine.dense_schur_max_frames;
   b.function_tolerance = o.refine.function_tolerance;
+  b.first_function_tolerance = o.refine.first_function_tolerance;
   return b;
 }
 
@@ -53,6 +55,7 @@ nlohmann::json StatsJson(const BundleStats& s) {
           {"point_observations", s.point_observations},
           {"point_outliers", s.point_outliers},
           {"iterations", s.iterations},
+          {"final_iterations", s.final_iterations},
           {"linear_solver", s.linear_solver},
           {"solve_s", s.solve_s}};
 }

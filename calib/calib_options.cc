@@ -58,7 +58,10 @@ const OptionFields<SfmOptions>& SfmOptions::Fields() {
           .Add("min_registered", &S::min_registered, 2, 100000, "fewer registered images: SfM failed")
           .Add("align_inlier_m", &S::align_inlier_m, 1e-5, 10.0, "camera-centre distance for the similarity RANSAC")
           .Add("point_weight", &S::point_weight, 0.0, 100.0, "SfM point residuals relative to board corners")
-          .Add("threads", &S::threads, 0, 1024, "0 = all cores");
+          .Add("threads", &S::threads, 0, 1024, "0 = all cores")
+          .Add("reuse_dir", &S::reuse_dir,
+               "a copy of a previous run's calib/sfm folder: its COLMAP model is read, no COLMAP step runs "
+               "(benchmarks of the refinement; same capture only)");
   return fields;
 }
 
@@ -72,12 +75,16 @@ const OptionFields<RefineOptions>& RefineOptions::Fields() {
       OptionFields<S>()
           .Add("huber_px", &S::huber_px, 1e-3, 100.0, "robust loss scale")
           .Add("outlier_px", &S::outlier_px, 0.1, 1000.0, "observations beyond this are dropped, then solved again")
+          .Add("final_huber_px", &S::final_huber_px, 0.0, 1000.0,
+               "robust loss scale of that second solve (0: huber_px)")
           .Add("max_iterations", &S::max_iterations, 1, 100000, "Ceres iterations")
           .Add("linear_solver", &S::linear_solver, {"auto", "dense_schur", "sparse_schur", "iterative_schur"},
                "Ceres linear solver (auto: dense Schur up to dense_schur_max_frames frames)")
           .Add("dense_schur_max_frames", &S::dense_schur_max_frames, 0, 1000000, "auto's switch to sparse Schur")
           .Add("function_tolerance", &S::function_tolerance, 1e-16, 0.1,
                "Ceres stops when the cost changes by less than this fraction")
+          .Add("first_function_tolerance", &S::first_function_tolerance, 0.0, 0.1,
+               "the same for the first solve, before outliers are dropped (0: function_tolerance)")
           .Add("max_corner_rms_px", &S::max_corner_rms_px, 0.01, 1000.0, "board-corner RMS above this: rejected")
           .Add("max_ratio_error", &S::max_ratio_error, 0.001, 1.0,
                "|measured / specified marker-to-square ratio - 1| above this: rejected");

@@ -55,8 +55,8 @@ struct SfmOptions {
   // "incremental" (default): COLMAP's incremental mapper from scratch, then
   // aligned to the board; "board_seeded": frames with a good board pose
   // enter COLMAP with that pose (point_triangulator), image_registrator
-  // places the rest: 3.5x less COLMAP time at ~400 images, but phone L and
-  // the flash were 2.8 mm from truth against 1.6-1.7 mm (docs/calib.md).
+  // places the rest: COLMAP ~3x faster at ~400 images, but phone V ended
+  // 3-4 mm from truth against 1.5-1.7 mm (docs/calib.md).
   std::string mode = "incremental";
   int seed_min_corners = 6;        // board corners a frame needs to seed the model with its pose
   int max_features = 8192;         // SIFT features per image (COLMAP's default)
@@ -72,6 +72,10 @@ struct SfmOptions {
   double align_inlier_m = 0.02;    // camera-centre distance for the similarity RANSAC
   double point_weight = 0.5;       // SfM point residuals relative to board corners
   int threads = 0;                 // 0 = all cores
+  // A previous run's calib/sfm folder (copied out of W/calib, which each run
+  // replaces): its COLMAP model is read and no COLMAP step runs. For
+  // measuring the refinement alone on the same capture.
+  std::string reuse_dir;
 
   static const OptionFields<SfmOptions>& Fields();
   void Check() const;  // the COLMAP executable is named
@@ -80,16 +84,26 @@ struct SfmOptions {
 struct RefineOptions {
   double huber_px = 1.0;           // robust loss scale
   double outlier_px = 3.0;         // observations beyond this are dropped, then solved again
+  // Huber scale of that second solve (0: huber_px). At outlier_px (3)
+  // every inlier is quadratic and Gauss-Newton converges in ~6 iterations
+  // instead of ~25, but phone L ended 0.5 mm further from truth at ~400
+  // images (docs/notes/calib-at-scale-2026-11-26.md).
+  double final_huber_px = 0;
   int max_iterations = 100;
   // Ceres linear solver: "auto" (dense Schur up to dense_schur_max_frames
   // frames, sparse Schur above), "dense_schur", "sparse_schur" or
   // "iterative_schur" (conjugate gradients, Schur-Jacobi preconditioner).
   std::string linear_solver = "auto";
-  int dense_schur_max_frames = 100;
-  // Ceres stops when the cost changes by less than this fraction. 1e-6
-  // took a third of the time on the tiny capture at the same phone V
-  // accuracy, but is unmeasured at scale (docs/calib.md).
-  double function_tolerance = 1e-9;
+  // At 312 frames dense Schur took 79 s against sparse 143 s (same run, same
+  // load): the reduced camera system is nearly dense (lenses, cross pairs).
+  int dense_schur_max_frames = 400;
+  // Ceres stops when the cost changes by less than this fraction. At ~400
+  // images 1e-6 (30 iterations in all) placed every device as 1e-9 did
+  // (100 + 100 iterations, unconverged).
+  double function_tolerance = 1e-6;
+  // The same for the first solve, which only has to bring the outliers out
+  // (0: function_tolerance): 1e-4 took 6 iterations instead of 100.
+  double first_function_tolerance = 1e-4;
   double max_corner_rms_px = 1.0;  // board-corner RMS above this: calibration rejected
   double max_ratio_error = 0.04;   // |measured/specified marker-to-square ratio - 1|
 

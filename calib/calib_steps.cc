@@ -227,6 +227,7 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   run.threads = so.threads;
   run.min_registered = so.min_registered;
   run.max_features = so.max_features;
+  run.reuse_dir = so.reuse_dir;
   if (so.mode == "board_seeded") {
     // Frames whose board pose rests on enough corners keep it; COLMAP places the rest.
     for (size_t i = 0; i < frames.size(); ++i) {

@@ -286,34 +286,34 @@ TEST(BundleTest, RecoversLensAndPosesFromBoardCorners) {
   }
 }
 
-// Board corners plus SfM points: the three linear solvers (points eliminated
-// first for the sparse and iterative ones) reach the same poses and lens.
-TEST(BundleTest, LinearSolversAgreeWithPoints) {
+// 16 frames around the board (varied distance and elevation: the lens is
+// observable), their corners and 40 points above the board, with Gaussian
+// pixel noise; poses and points start a few millimetres off.
+BundleProblem BoardAndPoints(double noise_px, std::vector<Rigid3>* poses) {
   BoardSpec spec;
   const Intrinsics truth = Intrinsics::FromFov(640, 480, 1.1);
   BundleProblem base;
   base.corners_world = CharucoCornersWorld(spec);
   base.devices["view"] = truth;
   std::mt19937 rng(7);
-  std::normal_distribution<double> noise(0, 0.1);
+  std::normal_distribution<double> noise(0, noise_px);
   std::uniform_real_distribution<double> box(-0.06, 0.06);
-  std::vector<Rigid3> poses;
   for (int i = 0; i < 16; ++i) {
     const double a = i * 0.3;
-    const double r = 0.3 + 0.01 * i;  // varied distance and elevation: the lens is observable
-    poses.push_back(LookAt(Eigen::Vector3d(r * std::cos(a), r * std::sin(a), 0.08 + 0.025 * i),
-                           Eigen::Vector3d(0.01 * std::sin(3 * a), 0, 0), Eigen::Vector3d::UnitZ()));
+    const double r = 0.3 + 0.01 * i;
+    poses->push_back(LookAt(Eigen::Vector3d(r * std::cos(a), r * std::sin(a), 0.08 + 0.025 * i),
+                            Eigen::Vector3d(0.01 * std::sin(3 * a), 0, 0), Eigen::Vector3d::UnitZ()));
     BundleFrame f;
     f.device = "view";
     f.posed = true;
-    const Camera camera(truth, poses.back());
+    const Camera camera(truth, poses->back());
     for (size_t c = 0; c < base.corners_world.size(); ++c) {
       Eigen::Vector2d px;
       if (!camera.Project(base.corners_world[c], &px)) continue;
       f.corner_ids.push_back(static_cast<int>(c));
       f.corners_px.push_back(px + Eigen::Vector2d(noise(rng), noise(rng)));
     }
-    f.cam_from_world = Rigid3(poses.back().rotation, poses.back().translation + Eigen::Vector3d(0.003, -0.002, 0.004));
+    f.cam_from_world = Rigid3(poses->back().rotation, poses->back().translation + Eigen::Vector3d(0.003, -0.002, 0.004));
     base.frames.push_back(f);
   }
   for (int k = 0; k < 40; ++k) {
@@ -321,11 +321,19 @@ TEST(BundleTest, LinearSolversAgreeWithPoints) {
     const Eigen::Vector3d x(box(rng), box(rng), 0.02 + box(rng) + 0.06);
     for (int i = 0; i < 16; ++i) {
       Eigen::Vector2d px;
-      if (Camera(truth, poses[i]).Project(x, &px)) point.observations.push_back({i, px + Eigen::Vector2d(noise(rng), noise(rng))});
+      if (Camera(truth, (*poses)[i]).Project(x, &px)) point.observations.push_back({i, px + Eigen::Vector2d(noise(rng), noise(rng))});
     }
     point.position_m = x + Eigen::Vector3d(0.002, 0.001, -0.002);
     base.points.push_back(point);
   }
+  return base;
+}
+
+// Board corners plus SfM points: the three linear solvers (points eliminated
+// first for the sparse and iterative ones) reach the same poses and lens.
+TEST(BundleTest, LinearSolversAgreeWithPoints) {
+  std::vector<Rigid3> poses;
+  const BundleProblem base = BoardAndPoints(0.1, &poses);
   std::map<std::string, BundleProblem> solved;
   for (const std::string solver : {"dense_schur", "sparse_schur", "iterative_schur"}) {
     BundleProblem p = base;
@@ -350,6 +358,35 @@ TEST(BundleTest, LinearSolversAgreeWithPoints) {
       EXPECT_LT((solved[solver].frames[i].cam_from_world.translation -
                  solved["dense_schur"].frames[i].cam_from_world.translation).norm(), 1e-4) << solver;  // 0.1 mm
     }
+  }
+}
+
+// The second solve at final_huber_px = outlier_px (every inlier in Huber's
+// quadratic part) after a loose first solve: the same poses and lens as
+// Huber 1 px to the end, within the noise.
+TEST(BundleTest, QuadraticSecondSolveAgreesWithHuber) {
+  std::vector<Rigid3> poses;
+  const BundleProblem base = BoardAndPoints(0.3, &poses);
+  std::map<double, BundleProblem> solved;
+  for (const double final_huber_px : {0.0, 3.0}) {
+    BundleProblem p = base;
+    BundleOptions o;
+    o.function_tolerance = 1e-10;
+    o.final_huber_px = final_huber_px;
+    if (final_huber_px > 0) o.first_function_tolerance = 1e-3;
+    const BundleStats stats = RefineBundle(&p, o);
+    EXPECT_GT(stats.final_iterations, 0);
+    EXPECT_LT(stats.final_iterations, o.max_iterations) << "final_huber_px " << final_huber_px;
+    for (int i = 0; i < 16; ++i) {
+      EXPECT_LT((p.frames[i].cam_from_world.Inverse().translation - poses[i].Inverse().translation).norm(), 8e-3)
+          << "final_huber_px " << final_huber_px << " frame " << i;
+    }
+    solved[final_huber_px] = p;
+  }
+  EXPECT_NEAR(solved[3.0].devices["view"].fx, solved[0.0].devices["view"].fx, 2.0);
+  for (int i = 0; i < 16; ++i) {
+    EXPECT_LT((solved[3.0].frames[i].cam_from_world.Inverse().translation -
+               solved[0.0].frames[i].cam_from_world.Inverse().translation).norm(), 1e-3) << "frame " << i;
   }
 }
 

@@ -221,17 +221,16 @@ std::map<std::string, ColmapIds> ReadColmapImageIds(const std::string& path) {
   return ids;
 }
 
-SfmResult RunColmapSfm(const std::vector<SfmImage>& images, const std::map<std::string, Intrinsics>& lenses,
-                       const std::vector<std::pair<std::string, std::string>>& pairs, const SfmRunOptions& o) {
-  SfmResult result;
-  result.images = static_cast<int>(images.size());
-  fs::create_directories(o.work_dir);
-  const std::string database = (fs::path(o.work_dir) / "database.db").string();
-  fs::remove(database);
+namespace {
+
+// Feature extraction (one call per phone, each with its fixed lens),
+// sequential matching and the cross pairs, then the mapper or the seeded
+// model, into `sparse`.
+void RunColmapSteps(const std::vector<SfmImage>& images, const std::map<std::string, Intrinsics>& lenses,
+                    const std::vector<std::pair<std::string, std::string>>& pairs, const SfmRunOptions& o,
+                    const std::string& database, const std::string& sparse, SfmResult* result) {
   const int threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const std::string common = " --database_path " + ShellQuote(database) + " --random_seed 1";
-
-  // Feature extraction: one call per phone so each gets its own fixed lens.
   for (const auto& [device, lens] : lenses) {
     const std::string list = (fs::path(o.work_dir) / ("images_" + device + ".txt")).string();
     std::ofstream out(list);
@@ -244,58 +243,84 @@ SfmResult RunColmapSfm(const std::vector<SfmImage>& images, const std::map<std::
     }
     out.close();
     if (count == 0) continue;
-    result.timings_s["feature_extractor"] += RunStep(
+    result->timings_s["feature_extractor"] += RunStep(
         o, "feature_extractor",
         common + " --image_path " + ShellQuote(o.image_dir) + " --image_list_path " + ShellQuote(list) +
             " --ImageReader.camera_model OPENCV --ImageReader.single_camera 1 --ImageReader.camera_params " +
             Params(lens) + " --SiftExtraction.use_gpu 0 --SiftExtraction.num_threads " + std::to_string(threads) +
             " --SiftExtraction.max_num_features " + std::to_string(o.max_features));
   }
-  result.timings_s["sequential_matcher"] = RunStep(
+  result->timings_s["sequential_matcher"] = RunStep(
       o, "sequential_matcher",
       common + " --SiftMatching.use_gpu 0 --SiftMatching.num_threads " + std::to_string(threads) +
-          " --SiftMatching.max_num_trials " + std::to_string(o.ransac_trials) + " --SequentialMatching.overlap " + std::to_string(o.sequential_overlap) +
-          " --SequentialMatching.loop_detection 0");
+          " --SiftMatching.max_num_trials " + std::to_string(o.ransac_trials) + " --SequentialMatching.overlap " +
+          std::to_string(o.sequential_overlap) + " --SequentialMatching.loop_detection 0");
   if (!pairs.empty()) {
     const std::string list = (fs::path(o.work_dir) / "cross_pairs.txt").string();
     std::ofstream out(list);
     for (const auto& [a, b] : pairs) out << a << " " << b << "\n";
     out.close();
-    result.timings_s["matches_importer"] = RunStep(
+    result->timings_s["matches_importer"] = RunStep(
         o, "matches_importer",
-        common + " --match_list_path " + ShellQuote(list) + " --match_type pairs --SiftMatching.use_gpu 0 --SiftMatching.max_num_trials " +
-            std::to_string(o.ransac_trials) +
+        common + " --match_list_path " + ShellQuote(list) + " --match_type pairs --SiftMatching.use_gpu 0 "
+                 "--SiftMatching.max_num_trials " + std::to_string(o.ransac_trials) +
             " --SiftMatching.num_threads " + std::to_string(threads));
   }
-  ReadColmapDatabase(database, &result.keypoints, &result.verified_pairs);
-  const std::string sparse = (fs::path(o.work_dir) / "sparse").string();
   fs::remove_all(sparse);
   fs::create_directories(sparse);
   const std::string fixed_lens =
       " --Mapper.ba_refine_focal_length 0 --Mapper.ba_refine_principal_point 0 --Mapper.ba_refine_extra_params 0"
       " --Mapper.num_threads " + std::to_string(threads);
   if (o.known_poses.empty()) {
-    result.timings_s["mapper"] = RunStep(o, "mapper", common + " --image_path " + ShellQuote(o.image_dir) +
-                                                          " --output_path " + ShellQuote(sparse) + fixed_lens);
+    result->timings_s["mapper"] = RunStep(o, "mapper", common + " --image_path " + ShellQuote(o.image_dir) +
+                                                           " --output_path " + ShellQuote(sparse) + fixed_lens);
   } else {
-    RunSeeded(o, database, images, lenses, sparse + "/0", fixed_lens, &result.timings_s);
+    RunSeeded(o, database, images, lenses, sparse + "/0", fixed_lens, &result->timings_s);
   }
+  // Every model in text form (COLMAP may split the sequence into several).
+  std::vector<fs::path> models;
+  for (const auto& entry : fs::directory_iterator(sparse)) {
+    if (entry.is_directory()) models.push_back(entry.path());
+  }
+  for (const fs::path& model : models) {
+    const std::string text = model.string() + "_txt";
+    fs::create_directories(text);
+    result->timings_s["model_converter"] += RunStep(
+        o, "model_converter",
+        " --input_path " + ShellQuote(model.string()) + " --output_path " + ShellQuote(text) + " --output_type TXT");
+  }
+}
 
-  // COLMAP may split the sequence into several models: take the largest.
+}  // namespace
+
+SfmResult RunColmapSfm(const std::vector<SfmImage>& images, const std::map<std::string, Intrinsics>& lenses,
+                       const std::vector<std::pair<std::string, std::string>>& pairs, const SfmRunOptions& o) {
+  SfmResult result;
+  result.images = static_cast<int>(images.size());
+  fs::create_directories(o.work_dir);
+  const std::string colmap_dir = o.reuse_dir.empty() ? o.work_dir : o.reuse_dir;
+  const std::string database = (fs::path(colmap_dir) / "database.db").string();
+  const std::string sparse = (fs::path(colmap_dir) / "sparse").string();
+  if (o.reuse_dir.empty()) {
+    fs::remove(database);
+    RunColmapSteps(images, lenses, pairs, o, database, sparse, &result);
+  } else {
+    RELIT_REQUIRE(fs::exists(database) && fs::is_directory(sparse), "sfm.reuse_dir ", o.reuse_dir,
+                  " holds no COLMAP run (database.db and sparse/ of a previous calib/sfm folder)");
+    spdlog::info("sfm: reusing the COLMAP model of {} (no COLMAP step runs)", o.reuse_dir);
+  }
+  ReadColmapDatabase(database, &result.keypoints, &result.verified_pairs);
+  // The largest model.
   std::string best_dir;
   int best = 0;
   for (const auto& entry : fs::directory_iterator(sparse)) {
-    if (!entry.is_directory()) continue;
-    const std::string text = entry.path().string() + "_txt";
-    fs::create_directories(text);
-    result.timings_s["model_converter"] += RunStep(
-        o, "model_converter",
-        " --input_path " + ShellQuote(entry.path().string()) + " --output_path " + ShellQuote(text) + " --output_type TXT");
-    const int count = CountModelImages(text);
+    const std::string name = entry.path().filename().string();
+    if (!entry.is_directory() || name.size() < 4 || name.substr(name.size() - 4) != "_txt") continue;
+    const int count = CountModelImages(entry.path().string());
     result.model_sizes.push_back(count);
     if (count > best) {
       best = count;
-      best_dir = text;
+      best_dir = entry.path().string();
     }
   }
   result.models = static_cast<int>(result.model_sizes.size());

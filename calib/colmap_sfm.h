@@ -39,6 +39,9 @@ struct SfmRunOptions {
   // Known cam_from_world poses by image name (board_seeded); empty: the
   // incremental mapper builds the model from scratch.
   std::map<std::string, Rigid3> known_poses;
+  // A previous run's COLMAP folder (database.db, sparse/): its model is read
+  // and no COLMAP step runs. For measuring the refinement alone.
+  std::string reuse_dir;
 };
 
 struct SfmTrackObservation {
