@@ -429,6 +429,8 @@ AugmentStageResult RunAugmentStage(const std::string& workspace, int partition, 
       const size_t pick = part.validation_frames.size() * (2 * i + 1) / (2 * validation_count);
       validation.push_back(LoadPlanFrame(root.string(), plan.frames[part.validation_frames[pick]], format));
     }
+    ThresholdMattes(captured, train.optimizer.matte_threshold);
+    ThresholdMattes(validation, train.optimizer.matte_threshold);
   }
   if (!validation.empty()) {
     DnlModel model = LoadModel(source / "checkpoint");

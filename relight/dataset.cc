@@ -49,6 +49,11 @@ Batch LoadPlanFrame(const std::string& workspace, const PlanFrame& frame, const 
   return batch;
 }
 
+void ThresholdMattes(std::vector<Batch>& frames, double threshold) {
+  if (threshold <= 0) return;
+  for (Batch& f : frames) f.target_matte = (f.target_matte >= threshold).to(f.target_matte.dtype());
+}
+
 void AttachTargets(Batch& batch, const Image& rgb, const Image& matte, int matte_channel) {
   batch.target_rgb = Channels(rgb, 0, 3).permute({2, 0, 1}).unsqueeze(0).contiguous();
   batch.target_matte =

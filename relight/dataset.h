@@ -19,6 +19,9 @@ Batch CueFrameToBatch(const Image& cue_frame, const CueFormat& format = {});
 // Sets the batch's targets: channels 0-2 of `rgb` (linear radiance) and
 // channel `matte_channel` of `matte` (clamped to [0, 1]). Sizes must match
 // the batch (the caller checks and names the files).
+// Thresholds the frames' target mattes at `threshold` (> 0; 0 = unchanged).
+void ThresholdMattes(std::vector<Batch>& frames, double threshold);
+
 void AttachTargets(Batch& batch, const Image& rgb, const Image& matte, int matte_channel = 0);
 
 // A Batch with targets from plan frame `frame` of `workspace`. Throws

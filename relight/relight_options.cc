@@ -189,6 +189,7 @@ void TrainOptions::Read(OptionsReader& reader) {
   reader.ReadRange("batch_size", &batch_size, 1, 1024);
   reader.ReadRange("crop_px", &crop_px, 0, 8192);
   reader.Read("mask_loss_weight", &mask_loss_weight);
+  reader.ReadRange("matte_threshold", &matte_threshold, 0.0, 1.0);
   reader.Read("seed", &seed);
   reader.ReadRange("threads", &threads, 1, 256);
   reader.Finish();
@@ -215,6 +216,7 @@ nlohmann::json TrainOptions::ToJson() const {
   return {{"learning_rate", learning_rate}, {"texture_learning_rate", texture_learning_rate},
           {"regression_learning_rate", regression_learning_rate}, {"beta1", beta1}, {"beta2", beta2},
           {"batch_size", batch_size}, {"crop_px", crop_px}, {"mask_loss_weight", mask_loss_weight},
+          {"matte_threshold", matte_threshold},
           {"seed", seed}, {"threads", threads}, {"cue_fit", cue_fit.ToJson()}};
 }
 

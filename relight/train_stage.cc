@@ -115,6 +115,8 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
       const size_t pick = part.validation_frames.size() * (2 * i + 1) / (2 * count);  // evenly spread
       validation.push_back(LoadPlanFrame(workspace, plan.frames[part.validation_frames[pick]], model_options.format));
     }
+    ThresholdMattes(frames, options.optimizer.matte_threshold);
+    ThresholdMattes(validation, options.optimizer.matte_threshold);
   }
 
   // Clipped video pixels: one-sided in the warm start and in the loss.
