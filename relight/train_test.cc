@@ -11,6 +11,7 @@
 #include "core/options.h"
 #include "core/run_record.h"
 #include "relight/checkpoint.h"
+#include "relight/dataset.h"
 #include "relight/model.h"
 #include "relight/cues_baseline.h"
 #include "relight/warm_start.h"
@@ -389,6 +390,17 @@ TEST(ResidualModelTest, MaskCorrectsOnlyNearTheCoverage) {
   }
   EXPECT_GT(far, 50);
   EXPECT_GT(near_changed, 10);  // the correction acts inside the band
+}
+
+// train.matte_threshold: mattes become 0/1 at the threshold; 0 keeps them.
+TEST(DatasetTest, ThresholdMattesAtTheGivenAlpha) {
+  std::vector<Batch> frames(1);
+  frames[0].target_matte = torch::tensor({0.0, 0.2, 0.5, 0.7, 1.0}).reshape({1, 1, 1, 5});
+  std::vector<Batch> soft = frames;
+  ThresholdMattes(soft, 0.0);
+  EXPECT_TRUE(torch::equal(soft[0].target_matte, frames[0].target_matte));
+  ThresholdMattes(frames, 0.5);
+  EXPECT_TRUE(torch::equal(frames[0].target_matte, torch::tensor({0.0, 0.0, 1.0, 1.0, 1.0}).reshape({1, 1, 1, 5})));
 }
 
 // Checkpoints written before the variants existed hold DNL models.
