@@ -109,24 +109,23 @@ Eigen::Vector3d MeasureTableAlbedo(const fs::path& root, const fs::path& mesh_pa
   for (const CueFrameRecord& r : cues.frames) {
     const CalibratedFrame* frame = cameras.Find(r.name);
     if (frame == nullptr || frame->image_linear.empty()) continue;
-    frames.push_back({r.name, Camera(cameras.undistorted_view, r.cam_from_world), r.light_position_m,
+    frames.push_back({cameras.ViewCamera(*frame), r.light_position_m,
                       (root / frame->image_linear).string()});
   }
   const TableAlbedoEstimate estimate = EstimateTableAlbedo(*scene, cues.support_plane, frames);
   record.Set("table_albedo_frames", estimate.frames_used);
   record.Set("table_albedo_pixels", estimate.table_pixels);
-  if (!estimate.found) {
-    const Eigen::Vector3d fallback = Eigen::Vector3d::Constant(kDefaultTableAlbedo);
+  const Eigen::Vector3d albedo =
+      estimate.found ? estimate.table_albedo : Eigen::Vector3d::Constant(kDefaultTableAlbedo);
+  if (estimate.found) {
+    spdlog::info("cues: table albedo {:.3f} {:.3f} {:.3f} (linear RGB, {} lit pixels in {} frames against the paper)",
+                 albedo.x(), albedo.y(), albedo.z(), estimate.table_pixels, estimate.frames_used);
+  } else {
     spdlog::warn("cues: the table's albedo could not be measured ({}); using {} (set cues.table_albedo)",
                  estimate.reason, kDefaultTableAlbedo);
-    record.Set("table_albedo", std::vector<double>{fallback.x(), fallback.y(), fallback.z()});
-    return fallback;
   }
-  const Eigen::Vector3d& a = estimate.table_albedo;
-  spdlog::info("cues: table albedo {:.3f} {:.3f} {:.3f} (linear RGB, {} lit pixels in {} frames against the paper)",
-               a.x(), a.y(), a.z(), estimate.table_pixels, estimate.frames_used);
-  record.Set("table_albedo", std::vector<double>{a.x(), a.y(), a.z()});
-  return a;
+  record.Set("table_albedo", std::vector<double>{albedo.x(), albedo.y(), albedo.z()});
+  return albedo;
 }
 
 }  // namespace

@@ -23,7 +23,6 @@
 namespace relit::relight {
 
 struct TableAlbedoFrame {
-  std::string name;
   Camera camera;               // the undistorted phone V camera of the frame
   Eigen::Vector3d light_position_m;
   std::string image_path;      // its linear image (calib/view_linear)

@@ -39,7 +39,6 @@ class TableAlbedoTest : public ::testing::Test {
   TableAlbedoFrame RenderFrame(int index, const Eigen::Vector3d& eye, const Eigen::Vector3d& light,
                                const Eigen::Vector3d& table_albedo, double scale) {
     TableAlbedoFrame frame;
-    frame.name = "view/" + std::to_string(index);
     frame.camera = Camera(Intrinsics::FromFov(160, 120, 1.1), LookAt(eye, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ()));
     frame.light_position_m = light;
     std::mt19937 rng(index);
