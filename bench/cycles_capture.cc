@@ -335,16 +335,8 @@ namespace {
 // Phone frames through the lens and the sensor, into the MP4 with its audio.
 void EncodeVideo(const SynthOptions& s, const VideoPlan& video, int video_index, const Canvas& canvas,
                  const fs::path& cache, const fs::path& root, Progress* progress) {
-  synth::VideoEncodeParams encode;
-  encode.width_px = video.intrinsics.width;
-  encode.height_px = video.intrinsics.height;
-  encode.fps = video.fps;
-  encode.audio_rate_hz = video.audio_rate_hz;
-  encode.audio_start_s = video.audio_start_s;
-  encode.crf = s.crf;
-  encode.display_rotation_deg = video.display_rotation_deg;
-  encode.audio_wav = (root / ("truth/audio/" + video.name + ".wav")).string();
-  synth::VideoEncoder encoder((root / (video.name + ".mp4")).string(), encode);
+  synth::VideoEncoder encoder((root / (video.name + ".mp4")).string(),
+                              synth::VideoEncodeParamsFor(video, s.crf, root.string()));
   for (const FramePlan& f : video.frames) {
     const Image radiance = Resample(ReadImage((cache / FrameExr(video.name, f.index)).string()), canvas,
                                     video.intrinsics.width, video.intrinsics.height);

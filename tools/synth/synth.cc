@@ -119,20 +119,28 @@ render::RenderResult RenderFrame(const SynthOptions& o, const VideoPlan& video, 
   return full;
 }
 
-void RenderVideo(const SynthOptions& o, const VideoPlan& video, int video_index,
-                 const SynthScene& synth_scene, render::Scene* scene,
-                 const render::EnvironmentLight& environment, const fs::path& root, bool write_alpha,
-                 Progress* progress) {
+}  // namespace
+
+VideoEncodeParams VideoEncodeParamsFor(const VideoPlan& video, int crf, const std::string& out_dir) {
   VideoEncodeParams encode;
   encode.width_px = video.intrinsics.width;
   encode.height_px = video.intrinsics.height;
   encode.fps = video.fps;
   encode.audio_rate_hz = video.audio_rate_hz;
   encode.audio_start_s = video.audio_start_s;
-  encode.crf = o.crf;
+  encode.crf = crf;
   encode.display_rotation_deg = video.display_rotation_deg;
-  encode.audio_wav = (root / ("truth/audio/" + video.name + ".wav")).string();
-  VideoEncoder encoder((root / (video.name + ".mp4")).string(), encode);
+  encode.audio_wav = (fs::path(out_dir) / "truth" / "audio" / (video.name + ".wav")).string();
+  return encode;
+}
+
+namespace {
+
+void RenderVideo(const SynthOptions& o, const VideoPlan& video, int video_index,
+                 const SynthScene& synth_scene, render::Scene* scene,
+                 const render::EnvironmentLight& environment, const fs::path& root, bool write_alpha,
+                 Progress* progress) {
+  VideoEncoder encoder((root / (video.name + ".mp4")).string(), VideoEncodeParamsFor(video, o.crf, root.string()));
   const std::vector<int> alpha_ids = synth_scene.ForegroundIds();
   if (video.lighting != "flash") {
     scene->ClearLights();

@@ -6,6 +6,7 @@
 
 #include "core/image.h"
 #include "tools/synth/capture_plan.h"
+#include "tools/synth/ffmpeg_io.h"
 #include "tools/synth/synth_options.h"
 
 namespace relit::synth {
@@ -27,6 +28,11 @@ SynthSummary RunSynthImpl(const SynthOptions& options);
 // sample rate: <out_dir>/truth/audio/{view,light[,geometry]}.wav, the tracks
 // the videos are muxed with. Also used by relit-bench-cycles-capture.
 void WriteCaptureAudio(const SynthOptions& options, const CapturePlan& plan, const std::string& out_dir);
+
+// The encoder settings of one phone's MP4 in <out_dir>: its plan's size,
+// frame rate, audio rate and start, rotation metadata and the audio track
+// WriteCaptureAudio wrote. Also used by relit-bench-cycles-capture.
+VideoEncodeParams VideoEncodeParamsFor(const VideoPlan& video, int crf, const std::string& out_dir);
 
 // The image as a phone shows it: turned clockwise by its display rotation
 // (0, 90, 180, 270), as players apply the rotation of the videos. Board-clip
