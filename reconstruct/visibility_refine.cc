@@ -11,6 +11,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/error.h"
+#include "core/median.h"
 #include "core/progress.h"
 #include "core/run_record.h"
 #include "reconstruct/depth_fusion.h"
@@ -128,8 +129,7 @@ render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const
     footprints.push_back((views[k].centre - centroid).norm() / camera.intrinsics().fx);
   }
   RELIT_REQUIRE(!footprints.empty(), "refine: no depth maps");
-  std::nth_element(footprints.begin(), footprints.begin() + footprints.size() / 2, footprints.end());
-  const double full_step = options.step_m > 0 ? options.step_m : 2.0 * footprints[footprints.size() / 2];
+  const double full_step = options.step_m > 0 ? options.step_m : 2.0 * Median(std::move(footprints));
 
   std::vector<std::vector<int>> rings(n);
   for (const Eigen::Vector3i& t : welded.triangles) {

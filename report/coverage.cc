@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 
 #include "core/error.h"
+#include "core/median.h"
 
 namespace relit::report {
 
@@ -108,8 +109,7 @@ CoverageStats ComputeCoverage(const std::vector<Eigen::Vector3d>& view_direction
     pairs.insert({vc, lc});
   }
   stats.relative_light_spread_deg = AngularSpreadDeg(relative);
-  std::nth_element(angles.begin(), angles.begin() + angles.size() / 2, angles.end());
-  stats.median_view_light_angle_deg = angles[angles.size() / 2];
+  stats.median_view_light_angle_deg = Median(std::move(angles));
   stats.view_cells = static_cast<int>(view_cells.size());
   stats.light_cells = static_cast<int>(light_cells.size());
   stats.view_light_cell_pairs = static_cast<int>(pairs.size());
