@@ -85,19 +85,12 @@ void SmoothStep(const std::vector<std::vector<int>>& rings, float factor, std::v
 
 }  // namespace
 
-nlohmann::json RefineReport::ToJson() const {
-  return {{"iterations", iterations},
-          {"step_m", step_m},
-          {"vertices", vertices},
-          {"carved_vertices_first", carved_vertices_first},
-          {"carved_vertices_last", carved_vertices_last},
-          {"supported_vertices", supported_vertices},
-          {"unseen_vertices", unseen_vertices},
-          {"mean_move_m", mean_move_m},
-          {"max_move_m", max_move_m},
-          {"seconds", seconds},
-          {"self_intersection_faces_replaced", self_intersection_faces_replaced}};
-}
+// The JSON keys are the members' names.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(RefineReport, iterations, step_m, vertices, carved_vertices_first,
+                                   carved_vertices_last, supported_vertices, unseen_vertices, mean_move_m,
+                                   max_move_m, seconds, self_intersection_faces_replaced)
+
+nlohmann::json RefineReport::ToJson() const { return *this; }
 
 render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const DepthEvidence& evidence,
                                          const RefineOptions& options, double floor_z_m, RefineReport* report) {

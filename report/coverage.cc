@@ -36,17 +36,12 @@ const OptionFields<CoverageThresholds>& CoverageThresholds::Fields() {
   return fields;
 }
 
-nlohmann::json CoverageStats::ToJson() const {
-  return {{"frames", frames},
-          {"view_spread_deg", view_spread_deg},
-          {"light_spread_deg", light_spread_deg},
-          {"relative_light_spread_deg", relative_light_spread_deg},
-          {"median_view_light_angle_deg", median_view_light_angle_deg},
-          {"view_cells", view_cells},
-          {"light_cells", light_cells},
-          {"view_light_cell_pairs", view_light_cell_pairs},
-          {"warnings", warnings}};
-}
+// The JSON keys are the members' names.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(CoverageStats, frames, view_spread_deg, light_spread_deg,
+                                   relative_light_spread_deg, median_view_light_angle_deg, view_cells, light_cells,
+                                   view_light_cell_pairs, warnings)
+
+nlohmann::json CoverageStats::ToJson() const { return *this; }
 
 double AngularSpreadDeg(const std::vector<Eigen::Vector3d>& directions) {
   if (directions.empty()) return 0;
