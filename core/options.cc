@@ -14,6 +14,7 @@
 #include <yaml-cpp/eventhandler.h>
 
 #include "core/error.h"
+#include "core/option_fields.h"
 
 namespace relit {
 
@@ -54,12 +55,6 @@ std::string Describe(const YAML::Node& node) {
     case YAML::NodeType::Map: return "a mapping";
     default: return "an empty value";
   }
-}
-
-std::string Join(const std::vector<std::string>& items) {
-  std::string out;
-  for (const std::string& item : items) out += (out.empty() ? "" : ", ") + item;
-  return out;
 }
 
 // The closest known key, or "" when none is close enough to be a typo.
@@ -327,14 +322,14 @@ void OptionsReader::Finish() {
   const std::string suggestion = Suggest(first.key, known);
   if (!suggestion.empty()) message += ", did you mean '" + suggestion + "'?";
   message += known.empty() ? " (this section takes no options)"
-                           : " (known keys: " + Join(known) + ")";
+                           : " (known keys: " + internal::JoinChoices(known) + ")";
   if (unknown.size() > 1) {
     std::vector<std::string> others;
     for (size_t i = 1; i < unknown.size(); ++i) {
       others.push_back(unknown[i].context.empty() ? unknown[i].key
                                                   : unknown[i].context + "." + unknown[i].key);
     }
-    message += "; also unknown: " + Join(others);
+    message += "; also unknown: " + internal::JoinChoices(others);
   }
   throw Error(message);
 }
@@ -421,5 +416,23 @@ template void OptionsReader::Convert(const std::string&, const YAML::Node&, cons
                                      std::vector<int>*) const;
 template void OptionsReader::Convert(const std::string&, const YAML::Node&, const Pos&,
                                      std::vector<std::string>*) const;
+
+namespace internal {
+
+std::string JoinChoices(const std::vector<std::string>& choices) {
+  std::string text;
+  for (const std::string& choice : choices) text += (text.empty() ? "" : ", ") + choice;
+  return text;
+}
+
+std::string ChoiceError(const std::string& value, const std::vector<std::string>& choices) {
+  if (std::find(choices.begin(), choices.end(), value) != choices.end()) return "";
+  std::string error = "'" + value + "' is not one of " + JoinChoices(choices);
+  const std::string suggestion = Suggest(value, choices);
+  if (!suggestion.empty()) error += " (did you mean '" + suggestion + "'?)";
+  return error;
+}
+
+}  // namespace internal
 
 }  // namespace relit
