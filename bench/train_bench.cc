@@ -36,6 +36,7 @@
 #include "relight/cue_stage.h"
 #include "relight/dataset.h"
 #include "relight/plan.h"
+#include "relight/test_scene.h"
 #include "relight/test_workspace.h"
 #include "relight/train_stage.h"
 
@@ -163,13 +164,7 @@ int Probe(const Options& o) {
   relight::Trainer trainer(model, train);
   int64_t params = 0;
   for (const auto& p : trainer.model()->parameters()) params += p.numel();
-  Batch b;  // random data: memory and time depend on the sizes only
-  b.uv = torch::rand({1, crop, crop, 2});
-  b.uv_derivatives = torch::full({1, crop, crop, 4}, 1.0 / 512);
-  b.coverage = torch::ones({1, 1, crop, crop});
-  b.cues = torch::rand({1, 15, crop, crop}) * 2.0;
-  b.target_rgb = torch::rand({1, 3, crop, crop});
-  b.target_matte = (torch::rand({1, 1, crop, crop}) > 0.3).to(torch::kFloat);
+  const Batch b = relight::testing::RandomBatch(crop);
   const double before = ProcStatusMiB("VmRSS");
   RELIT_REQUIRE(ResetPeakRss(), "cannot reset the peak RSS (/proc/self/clear_refs)");
   const auto start = std::chrono::steady_clock::now();

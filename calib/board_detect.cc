@@ -20,6 +20,7 @@ extern "C" {
 }
 
 #include "core/error.h"
+#include "core/median.h"
 
 namespace relit::calib {
 
@@ -296,8 +297,7 @@ double MeasureMarkerRatio(const BoardObservation& obs, const Intrinsics& intrins
     for (int k = 0; k < 4; ++k) side += cv::norm(out[k] - out[(k + 1) % 4]);
     ratios.push_back(side / 4);
   }
-  std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
-  return ratios[ratios.size() / 2];
+  return Median(std::move(ratios));
 }
 
 }  // namespace relit::calib

@@ -8,6 +8,7 @@
 #include <opencv2/core/eigen.hpp>
 
 #include "core/error.h"
+#include "core/median.h"
 
 namespace relit::calib {
 
@@ -84,8 +85,7 @@ BoardCalibration CalibrateFromBoard(const std::vector<const BoardObservation*>& 
         all.push_back(errors[f].back());
       }
     }
-    std::nth_element(all.begin(), all.begin() + all.size() / 2, all.end());
-    const double threshold = std::max(0.5, 3 * 1.4826 * all[all.size() / 2]);
+    const double threshold = std::max(0.5, 3 * 1.4826 * Median(std::move(all)));
     bool changed = false;
     std::vector<std::vector<cv::Point2f>> kept_corners;
     std::vector<std::vector<int>> kept_ids;

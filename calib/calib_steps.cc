@@ -14,6 +14,7 @@
 #include "calib/align.h"
 #include "calib/colmap_sfm.h"
 #include "core/error.h"
+#include "core/median.h"
 #include "core/progress.h"
 
 namespace relit::calib {
@@ -21,12 +22,6 @@ namespace relit::calib {
 namespace {
 
 namespace fs = std::filesystem;
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 std::string SfmName(const CaptureFrame& frame) {
   // capture/view/000003.png -> view/000003.png (relative to W/capture).
@@ -322,7 +317,7 @@ nlohmann::json CheckBoardScale(const std::vector<CalibFrame>& frames, const Bund
     if (r > 0) ratios.push_back(r);
   }
   const double specified = spec.marker_length_m / spec.square_length_m;
-  const double measured = Median(ratios);
+  const double measured = ratios.empty() ? 0.0 : Median(ratios);
   *measured_ratio = measured;
   nlohmann::json report = {{"frames", ratios.size()},
                            {"marker_to_square_measured", measured},

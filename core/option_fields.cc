@@ -49,30 +49,6 @@ std::string FormatOptionValue(const std::optional<double>& value) {
   return value ? FormatOptionValue(*value) : "unset";
 }
 
-std::string JoinChoices(const std::vector<std::string>& choices) {
-  std::string text;
-  for (const std::string& choice : choices) text += (text.empty() ? "" : ", ") + choice;
-  return text;
-}
-
-std::string ChoiceError(const std::string& value, const std::vector<std::string>& choices) {
-  std::string best;
-  int best_distance = std::numeric_limits<int>::max();
-  for (const std::string& choice : choices) {
-    if (choice == value) return "";
-    const int distance = EditDistance(value, choice);
-    if (distance < best_distance) {
-      best_distance = distance;
-      best = choice;
-    }
-  }
-  std::string error = "'" + value + "' is not one of " + JoinChoices(choices);
-  if (best_distance <= std::max<int>(1, static_cast<int>(value.size()) / 3)) {
-    error += " (did you mean '" + best + "'?)";
-  }
-  return error;
-}
-
 std::string Dotted(const std::string& context, const std::string& key) {
   return context.empty() ? key : context + "." + key;
 }

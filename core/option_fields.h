@@ -21,8 +21,6 @@
 //     return fields;
 //   }
 //
-// Relight's structs still use OptionsReader directly (core/options.h); both
-// work side by side.
 #pragma once
 
 #include <functional>
@@ -162,6 +160,23 @@ class OptionFields {
     return *this;
   }
 
+  // A struct with its own table (C::Fields()) whose keys stand at this
+  // level, beside S's own (e.g. relight's train: holds the optimiser's keys):
+  // read, checked, written and documented as if they were S's.
+  template <typename C>
+  OptionFields& Inline(C S::*member) {
+    Field field;
+    field.inline_json = true;
+    field.read = [member](OptionsReader& r, S* s) { C::Fields().ReadFields(r, &(s->*member)); };
+    field.check = [member](const S& s, const std::string& context) { C::Fields().Check(s.*member, context); };
+    field.to_json = [member](const S& s) { return C::Fields().ToJson(s.*member); };
+    field.section_rows = [member](const S& defaults, const std::string& prefix, DocRows* rows, MovedKeys* moved) {
+      C::Fields().AppendRows(defaults.*member, prefix, rows, moved);
+    };
+    fields_.push_back(std::move(field));
+    return *this;
+  }
+
   // A key that moved (e.g. proxy.photo_views -> proxy.photo.views): reading
   // it is an error that names the new key. Both keys are relative to S.
   OptionFields& Moved(const char* old_key, const char* new_key) {
@@ -176,14 +191,28 @@ class OptionFields {
     return *this;
   }
 
+  // Called on the JSON ToJson() writes, to leave out keys that do not apply
+  // or add what is not a key (run records and resume fingerprints compare
+  // these JSONs, so a record keeps the keys it always had).
+  OptionFields& OnToJson(std::function<void(const S&, nlohmann::json*)> hook) {
+    on_to_json_ = std::move(hook);
+    return *this;
+  }
+
   void Read(OptionsReader& reader, S* options) const {
+    ReadFields(reader, options);
+    reader.Finish();
+  }
+
+  // Read() without the check for unknown keys (Inline's: the keys of the
+  // enclosing struct stand in the same section).
+  void ReadFields(OptionsReader& reader, S* options) const {
     for (const auto& [old_key, new_key] : moved_) {
       RELIT_REQUIRE(!reader.Has(old_key), reader.Where(old_key), ": moved to '",
                     internal::Dotted(reader.context(), new_key), "'");
     }
     for (const Field& field : fields_) field.read(reader, options);
     if (on_read_) on_read_(reader, options);
-    reader.Finish();
   }
 
   // Ranges and choices of every field (sections included), then S::Check().
@@ -205,7 +234,14 @@ class OptionFields {
 
   nlohmann::json ToJson(const S& options) const {
     nlohmann::json json = nlohmann::json::object();
-    for (const Field& field : fields_) json[field.key] = field.to_json(options);
+    for (const Field& field : fields_) {
+      if (field.inline_json) {
+        json.update(field.to_json(options));
+      } else {
+        json[field.key] = field.to_json(options);
+      }
+    }
+    if (on_to_json_) on_to_json_(options, &json);
     return json;
   }
 
@@ -227,6 +263,7 @@ class OptionFields {
  private:
   struct Field {
     std::string key, doc, range_text;
+    bool inline_json = false;  // Inline: the JSON's keys go into S's
     std::function<void(OptionsReader&, S*)> read;
     std::function<void(const S&, const std::string&)> check;  // empty: nothing to check
     std::function<nlohmann::json(const S&)> to_json;
@@ -280,6 +317,7 @@ class OptionFields {
   std::vector<Field> fields_;
   MovedKeys moved_;
   std::function<void(OptionsReader&, S*)> on_read_;
+  std::function<void(const S&, nlohmann::json*)> on_to_json_;
 };
 
 // The generic operations, for a struct with a static Fields().

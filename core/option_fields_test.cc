@@ -137,6 +137,64 @@ TEST(OptionFields, MarkdownListsDefaultsRangesChoicesAndMovedKeys) {
   EXPECT_TRUE(Contains(text, "`proxy.hull_voxel_m` -> `proxy.hull.voxel_m`"));
 }
 
+// A section whose optimiser keys stand beside its own (Inline), and whose
+// JSON leaves out a key that does not apply (OnToJson).
+struct OptimizerPart {
+  double rate = 0.1;
+  int batch = 2;
+
+  static const OptionFields<OptimizerPart>& Fields() {
+    static const auto fields = OptionFields<OptimizerPart>()
+                                   .Add("rate", &OptimizerPart::rate, 0.0, 1.0, "step size")
+                                   .Add("batch", &OptimizerPart::batch, 1, 64, "frames per step");
+    return fields;
+  }
+  void Check() const { RELIT_REQUIRE(batch % 2 == 0, "batch must be even"); }
+};
+
+struct TrainSection {
+  int steps = 10;
+  std::string schedule = "none";
+  double decay = 0.5;  // only with schedule: step
+  OptimizerPart optimizer;
+
+  static const OptionFields<TrainSection>& Fields() {
+    static const auto fields =
+        OptionFields<TrainSection>()
+            .Add("steps", &TrainSection::steps, 1, 1000, "steps")
+            .Add("schedule", &TrainSection::schedule, {"none", "step"}, "learning-rate schedule")
+            .Add("decay", &TrainSection::decay, 0.0, 1.0, "decay per step (schedule: step)")
+            .Inline(&TrainSection::optimizer)
+            .OnToJson([](const TrainSection& s, nlohmann::json* json) {
+              if (s.schedule == "none") json->erase("decay");
+            });
+    return fields;
+  }
+};
+
+TEST(OptionFields, InlineKeysStandBesideTheSectionsOwn) {
+  OptionsReader reader = OptionsReader::FromString("steps: 20\nrate: 0.5\nbatch: 4\n", "t.yaml");
+  TrainSection options;
+  ReadOptions(reader, &options);
+  EXPECT_EQ(options.steps, 20);
+  EXPECT_EQ(options.optimizer.rate, 0.5);
+  EXPECT_EQ(options.optimizer.batch, 4);
+  OptionsReader typo = OptionsReader::FromString("steps: 20\nrat: 0.5\n", "t.yaml");
+  EXPECT_TRUE(Contains(ErrorOf([&] { ReadOptions(typo, &options); }), "unknown key 'rat', did you mean 'rate'?"));
+  OptionsReader range = OptionsReader::FromString("batch: 100\n", "t.yaml");
+  EXPECT_TRUE(Contains(ErrorOf([&] { ReadOptions(range, &options); }), "key 'batch': value 100 is out of range"));
+  options.optimizer.batch = 3;
+  EXPECT_EQ(ErrorOf([&] { CheckOptions(options, "train"); }), "train: batch must be even");
+  EXPECT_EQ(OptionsToJson(TrainSection()),
+            nlohmann::json({{"steps", 10}, {"schedule", "none"}, {"rate", 0.1}, {"batch", 2}}));
+  options = TrainSection();
+  options.schedule = "step";
+  EXPECT_EQ(OptionsToJson(options)["decay"], 0.5);
+  const std::string text = OptionsMarkdown<TrainSection>("train.");
+  EXPECT_TRUE(Contains(text, "| `train.decay` | 0.5 | [0, 1] | decay per step (schedule: step) |\n"
+                             "| `train.rate` | 0.1 | [0, 1] | step size |\n"));
+}
+
 TEST(OptionFields, FormatsNumbersAsTheyAreWritten) {
   using internal::FormatOptionValue;
   EXPECT_EQ(FormatOptionValue(0.0005), "0.0005");

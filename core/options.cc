@@ -14,6 +14,7 @@
 #include <yaml-cpp/eventhandler.h>
 
 #include "core/error.h"
+#include "core/option_fields.h"
 
 namespace relit {
 
@@ -54,12 +55,6 @@ std::string Describe(const YAML::Node& node) {
     case YAML::NodeType::Map: return "a mapping";
     default: return "an empty value";
   }
-}
-
-std::string Join(const std::vector<std::string>& items) {
-  std::string out;
-  for (const std::string& item : items) out += (out.empty() ? "" : ", ") + item;
-  return out;
 }
 
 // The closest known key, or "" when none is close enough to be a typo.
@@ -327,14 +322,14 @@ void OptionsReader::Finish() {
   const std::string suggestion = Suggest(first.key, known);
   if (!suggestion.empty()) message += ", did you mean '" + suggestion + "'?";
   message += known.empty() ? " (this section takes no options)"
-                           : " (known keys: " + Join(known) + ")";
+                           : " (known keys: " + internal::JoinChoices(known) + ")";
   if (unknown.size() > 1) {
     std::vector<std::string> others;
     for (size_t i = 1; i < unknown.size(); ++i) {
       others.push_back(unknown[i].context.empty() ? unknown[i].key
                                                   : unknown[i].context + "." + unknown[i].key);
     }
-    message += "; also unknown: " + Join(others);
+    message += "; also unknown: " + internal::JoinChoices(others);
   }
   throw Error(message);
 }
@@ -349,47 +344,39 @@ void OptionsReader::FailRange(const std::string& key, const std::string& value,
   Fail(Where(key), ": value ", value, " is out of range [", min, ", ", max, "]");
 }
 
-void OptionsReader::Convert(const std::string& qualified, const YAML::Node& node,
-                            const Pos& position, bool* value) const {
-  if (!node.IsScalar() || !YAML::convert<bool>::decode(node, *value)) {
-    FailType(position, qualified, node, "a boolean (true/false)");
-  }
+namespace {
+
+// What a value of type T must look like, for FailType.
+template <typename T>
+const char* Expected() {
+  if constexpr (std::is_same_v<T, bool>) return "a boolean (true/false)";
+  if constexpr (std::is_same_v<T, int>) return "an integer (32-bit)";
+  if constexpr (std::is_same_v<T, int64_t>) return "an integer";
+  if constexpr (std::is_same_v<T, uint64_t>) return "a non-negative integer";
+  return "a number";
 }
 
-void OptionsReader::Convert(const std::string& qualified, const YAML::Node& node,
-                            const Pos& position, int* value) const {
-  if (!node.IsScalar() || !ParseInteger(node.Scalar(), value)) {
-    FailType(position, qualified, node, "an integer (32-bit)");
+}  // namespace
+
+template <typename T>
+void OptionsReader::Convert(const std::string& qualified, const YAML::Node& node, const Pos& position,
+                            T* value) const {
+  static_assert(std::is_arithmetic_v<T>, "Convert: a number or a boolean");
+  bool converted = node.IsScalar();
+  if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
+    converted = converted && ParseInteger(node.Scalar(), value);
+  } else {
+    converted = converted && YAML::convert<T>::decode(node, *value);
   }
+  if (!converted) FailType(position, qualified, node, Expected<T>());
 }
 
-void OptionsReader::Convert(const std::string& qualified, const YAML::Node& node,
-                            const Pos& position, int64_t* value) const {
-  if (!node.IsScalar() || !ParseInteger(node.Scalar(), value)) {
-    FailType(position, qualified, node, "an integer");
-  }
-}
-
-void OptionsReader::Convert(const std::string& qualified, const YAML::Node& node,
-                            const Pos& position, uint64_t* value) const {
-  if (!node.IsScalar() || !ParseInteger(node.Scalar(), value)) {
-    FailType(position, qualified, node, "a non-negative integer");
-  }
-}
-
-void OptionsReader::Convert(const std::string& qualified, const YAML::Node& node,
-                            const Pos& position, double* value) const {
-  if (!node.IsScalar() || !YAML::convert<double>::decode(node, *value)) {
-    FailType(position, qualified, node, "a number");
-  }
-}
-
-void OptionsReader::Convert(const std::string& qualified, const YAML::Node& node,
-                            const Pos& position, float* value) const {
-  if (!node.IsScalar() || !YAML::convert<float>::decode(node, *value)) {
-    FailType(position, qualified, node, "a number");
-  }
-}
+template void OptionsReader::Convert(const std::string&, const YAML::Node&, const Pos&, bool*) const;
+template void OptionsReader::Convert(const std::string&, const YAML::Node&, const Pos&, int*) const;
+template void OptionsReader::Convert(const std::string&, const YAML::Node&, const Pos&, int64_t*) const;
+template void OptionsReader::Convert(const std::string&, const YAML::Node&, const Pos&, uint64_t*) const;
+template void OptionsReader::Convert(const std::string&, const YAML::Node&, const Pos&, double*) const;
+template void OptionsReader::Convert(const std::string&, const YAML::Node&, const Pos&, float*) const;
 
 void OptionsReader::Convert(const std::string& qualified, const YAML::Node& node,
                             const Pos& position, std::string* value) const {
@@ -421,5 +408,23 @@ template void OptionsReader::Convert(const std::string&, const YAML::Node&, cons
                                      std::vector<int>*) const;
 template void OptionsReader::Convert(const std::string&, const YAML::Node&, const Pos&,
                                      std::vector<std::string>*) const;
+
+namespace internal {
+
+std::string JoinChoices(const std::vector<std::string>& choices) {
+  std::string text;
+  for (const std::string& choice : choices) text += (text.empty() ? "" : ", ") + choice;
+  return text;
+}
+
+std::string ChoiceError(const std::string& value, const std::vector<std::string>& choices) {
+  if (std::find(choices.begin(), choices.end(), value) != choices.end()) return "";
+  std::string error = "'" + value + "' is not one of " + JoinChoices(choices);
+  const std::string suggestion = Suggest(value, choices);
+  if (!suggestion.empty()) error += " (did you mean '" + suggestion + "'?)";
+  return error;
+}
+
+}  // namespace internal
 
 }  // namespace relit

@@ -137,20 +137,11 @@ class OptionsReader {
   [[noreturn]] void FailRange(const std::string& key, const std::string& value,
                               const std::string& min, const std::string& max) const;
 
-  // Conversions, one per supported type; they throw on mismatch.
+  // Conversions; they throw on mismatch. T: bool, int, int64_t, uint64_t,
+  // double or float (instantiated in options.cc).
   using Pos = std::string;
-  void Convert(const std::string& qualified, const YAML::Node& node, const Pos& position,
-               bool* value) const;
-  void Convert(const std::string& qualified, const YAML::Node& node, const Pos& position,
-               int* value) const;
-  void Convert(const std::string& qualified, const YAML::Node& node, const Pos& position,
-               int64_t* value) const;
-  void Convert(const std::string& qualified, const YAML::Node& node, const Pos& position,
-               uint64_t* value) const;
-  void Convert(const std::string& qualified, const YAML::Node& node, const Pos& position,
-               double* value) const;
-  void Convert(const std::string& qualified, const YAML::Node& node, const Pos& position,
-               float* value) const;
+  template <typename T>
+  void Convert(const std::string& qualified, const YAML::Node& node, const Pos& position, T* value) const;
   void Convert(const std::string& qualified, const YAML::Node& node, const Pos& position,
                std::string* value) const;
   template <typename E>

@@ -107,25 +107,19 @@ bool Selection::Selected(const Step& step) const {
   if (!only_.empty() && !any(only_, [&](const std::string& s) { return SelectorMatches(s, step); })) {
     return false;
   }
-  if (!from_.empty() && !any(from_, [&](const std::string& s) {
-        if (SelectorMatches(s, step)) return true;
-        for (const std::string& k : KindsOf(s)) {
-          if (Contains(DownstreamKinds(k), step.kind)) return true;
-        }
-        return false;
-      })) {
-    return false;
-  }
-  if (!to_.empty() && !any(to_, [&](const std::string& s) {
-        if (SelectorMatches(s, step)) return true;
-        for (const std::string& k : KindsOf(s)) {
-          if (Contains(UpstreamKinds(k), step.kind)) return true;
-        }
-        return false;
-      })) {
-    return false;
-  }
-  return true;
+  // A selector of `selectors` names the step, or a kind whose `linked`
+  // kinds (downstream for --from, upstream for --to) hold the step's kind.
+  auto reaches = [&](const std::vector<std::string>& selectors, auto&& linked) {
+    return any(selectors, [&](const std::string& s) {
+      if (SelectorMatches(s, step)) return true;
+      for (const std::string& k : KindsOf(s)) {
+        if (Contains(linked(k), step.kind)) return true;
+      }
+      return false;
+    });
+  };
+  if (!from_.empty() && !reaches(from_, DownstreamKinds)) return false;
+  return to_.empty() || reaches(to_, UpstreamKinds);
 }
 
 bool Selection::Forced(const Step& step) const {

@@ -28,6 +28,17 @@ std::string Prefix(const PipelineConfig& config, const std::string& section) {
   return config.file + ": " + section + ": ";
 }
 
+// CheckOptions with the file and section in front of a value error (reader
+// errors already start with the file and line).
+template <typename S>
+void CheckSection(const PipelineConfig& config, const std::string& section, const S& options) {
+  try {
+    CheckOptions(options);
+  } catch (const Error& e) {
+    Fail(Prefix(config, section), e.what());
+  }
+}
+
 }  // namespace
 
 void CheckStageSections(const PipelineConfig& config, const YAML::Node& root) {
@@ -44,11 +55,7 @@ void CheckStageSections(const PipelineConfig& config, const YAML::Node& root) {
     options.view = config.view;
     options.light = config.light;
     options.out = "capture";
-    try {
-      CheckOptions(options);
-    } catch (const Error& e) {
-      Fail(Prefix(config, "capture"), e.what());
-    }
+    CheckSection(config, "capture", options);
   }
   {
     OptionsReader section = reader.Child("calib");
@@ -64,11 +71,7 @@ void CheckStageSections(const PipelineConfig& config, const YAML::Node& root) {
     options.workspace = "W";
     OptionsReader board = reader.Child("board");
     ReadBoardSpec(board, &options.board);
-    try {
-      CheckOptions(options);
-    } catch (const Error& e) {
-      Fail(Prefix(config, "calib"), e.what());
-    }
+    CheckSection(config, "calib", options);
   }
   {
     OptionsReader section = reader.Child("reconstruct");
@@ -77,11 +80,7 @@ void CheckStageSections(const PipelineConfig& config, const YAML::Node& root) {
     reconstruct::ReconstructOptions options;
     ReadOptions(section, &options);
     options.workspace = "W";
-    try {
-      CheckOptions(options);
-    } catch (const Error& e) {
-      Fail(Prefix(config, "reconstruct"), e.what());
-    }
+    CheckSection(config, "reconstruct", options);
   }
   {
     // The whole relight section, with relit-relight's own readers (no

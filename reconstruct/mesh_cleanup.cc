@@ -282,18 +282,15 @@ render::TriangleMesh CleanupMesh(const render::TriangleMesh& input, const Cleanu
   return out;
 }
 
+// The JSON keys are the members' names.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(MeshStats, faces, vertices, boundary_edges, non_manifold_edges,
+                                   non_manifold_vertices, components, self_intersects, area_m2, volume_m3)
+
 nlohmann::json MeshStats::ToJson() const {
-  return {{"faces", faces},
-          {"vertices", vertices},
-          {"boundary_edges", boundary_edges},
-          {"non_manifold_edges", non_manifold_edges},
-          {"non_manifold_vertices", non_manifold_vertices},
-          {"components", components},
-          {"self_intersects", self_intersects},
-          {"area_m2", area_m2},
-          {"volume_m3", volume_m3},
-          {"closed", closed()},
-          {"manifold", manifold()}};
+  nlohmann::json json = *this;
+  json["closed"] = closed();
+  json["manifold"] = manifold();
+  return json;
 }
 
 MeshStats AnalyseMesh(const render::TriangleMesh& input) {

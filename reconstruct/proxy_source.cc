@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/image.h"
+#include "core/median.h"
 #include "core/progress.h"
 #include "reconstruct/depth_cache.h"
 #include "reconstruct/depth_fusion.h"
@@ -147,8 +148,7 @@ DensePoints DenseDepthPoints(const fs::path& workspace, const CamerasFile& camer
     for (int j : neighbours[i]) fr["neighbours"].push_back(frames[j]->name);
     frame_reports.push_back(fr);
   }
-  std::nth_element(footprints.begin(), footprints.begin() + n / 2, footprints.end());
-  result.pixel_footprint_m = footprints[n / 2];
+  result.pixel_footprint_m = Median(std::move(footprints));
   (*report)["frames"] = frame_reports;
   (*report)["fused_points"] = result.points.size();
   spdlog::info("dense: {} consistent depth points from {} frames ({} without any)", result.points.size(), n,
@@ -260,9 +260,8 @@ CropRegion CropFromCameras(const CamerasFile& cameras, const std::vector<const C
     const Camera camera = cameras.ViewCamera(*f);
     widths.push_back((camera.Center() - centre).norm() * camera.intrinsics().width / camera.intrinsics().fx);
   }
-  std::nth_element(widths.begin(), widths.begin() + widths.size() / 2, widths.end());
   crop.radius_m = options.crop_radius_m > 0 ? options.crop_radius_m
-                                            : std::max(0.1, options.crop_radius_scale * 0.25 * widths[widths.size() / 2]);
+                                            : std::max(0.1, options.crop_radius_scale * 0.25 * Median(std::move(widths)));
   return crop;
 }
 

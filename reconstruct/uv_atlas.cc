@@ -34,21 +34,13 @@ void LayOutTriangle(const render::TriangleMesh& mesh, atlas::Chart* chart) {
 
 }  // namespace
 
-nlohmann::json AtlasStats::ToJson() const {
-  return {{"charts", charts},
-          {"chart_splits", chart_splits},
-          {"chart_merges", chart_merges},
-          {"flipped_triangles", flipped_triangles},
-          {"degenerate_triangles", degenerate_triangles},
-          {"overlapping_texels", overlapping_texels},
-          {"chart_contact_texels", chart_contact_texels},
-          {"min_chart_gap_texels", min_chart_gap_texels},
-          {"utilisation", utilisation},
-          {"stretch_l2_mean", stretch_l2_mean},
-          {"stretch_l2_max", stretch_l2_max},
-          {"stretch_area_ratio_p95", stretch_area_ratio_p95},
-          {"texels_per_metre", texels_per_metre}};
-}
+// The JSON keys are the members' names.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(AtlasStats, charts, chart_splits, chart_merges, flipped_triangles,
+                                   degenerate_triangles, overlapping_texels, chart_contact_texels,
+                                   min_chart_gap_texels, utilisation, stretch_l2_mean, stretch_l2_max,
+                                   stretch_area_ratio_p95, texels_per_metre)
+
+nlohmann::json AtlasStats::ToJson() const { return *this; }
 
 namespace atlas {
 

@@ -11,6 +11,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/error.h"
+#include "core/median.h"
 #include "core/progress.h"
 #include "core/run_record.h"
 #include "reconstruct/depth_fusion.h"
@@ -84,19 +85,12 @@ void SmoothStep(const std::vector<std::vector<int>>& rings, float factor, std::v
 
 }  // namespace
 
-nlohmann::json RefineReport::ToJson() const {
-  return {{"iterations", iterations},
-          {"step_m", step_m},
-          {"vertices", vertices},
-          {"carved_vertices_first", carved_vertices_first},
-          {"carved_vertices_last", carved_vertices_last},
-          {"supported_vertices", supported_vertices},
-          {"unseen_vertices", unseen_vertices},
-          {"mean_move_m", mean_move_m},
-          {"max_move_m", max_move_m},
-          {"seconds", seconds},
-          {"self_intersection_faces_replaced", self_intersection_faces_replaced}};
-}
+// The JSON keys are the members' names.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(RefineReport, iterations, step_m, vertices, carved_vertices_first,
+                                   carved_vertices_last, supported_vertices, unseen_vertices, mean_move_m,
+                                   max_move_m, seconds, self_intersection_faces_replaced)
+
+nlohmann::json RefineReport::ToJson() const { return *this; }
 
 render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const DepthEvidence& evidence,
                                          const RefineOptions& options, double floor_z_m, RefineReport* report) {
@@ -128,8 +122,7 @@ render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const
     footprints.push_back((views[k].centre - centroid).norm() / camera.intrinsics().fx);
   }
   RELIT_REQUIRE(!footprints.empty(), "refine: no depth maps");
-  std::nth_element(footprints.begin(), footprints.begin() + footprints.size() / 2, footprints.end());
-  const double full_step = options.step_m > 0 ? options.step_m : 2.0 * footprints[footprints.size() / 2];
+  const double full_step = options.step_m > 0 ? options.step_m : 2.0 * Median(std::move(footprints));
 
   std::vector<std::vector<int>> rings(n);
   for (const Eigen::Vector3i& t : welded.triangles) {

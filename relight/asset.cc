@@ -118,7 +118,7 @@ void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRe
       entry["model"] = "partitions/" + name;
       entry["texture"] = "textures/" + name + ".exr";
       entry["steps"] = info.step;
-      entry["model_options"] = info.model_options.ToJson();
+      entry["model_options"] = OptionsToJson(info.model_options);
       entry["log_encoding"] = {{"formula", "y = 2 (ln(x + 1/e) + 1) / (ln(M + 1/e) + 1) - 1"},
                                {"M", info.model_options.max_radiance}};
       ++trained;
@@ -129,7 +129,7 @@ void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRe
   WriteJsonFile((root / "manifest.json").string(), AssetDescription::kKind, AssetDescription::kVersion,
                 {{"units", "metres"},
                  {"frame", "board frame: origin and x axis from the ChArUco board, +Z up (docs/conventions.md)"},
-                 {"layout_options", asset.layout_options.ToJson()},
+                 {"layout_options", OptionsToJson(asset.layout_options)},
                  {"layout", PartitionLayout::FromOptions(asset.layout_options).ToJson()},
                  {"object_centre_m", ToJson(asset.object_centre_m)},
                  {"object_radius_m", asset.object_radius_m},

@@ -272,7 +272,7 @@ json ReadFingerprint(const fs::path& path) {
 
 AugmentStageResult RunAugmentStage(const std::string& workspace, int partition, const AugmentOptions& options,
                                    const TrainStageOptions& train, bool restart, RunRecord& record) {
-  options.Check();
+  CheckOptions(options, "augment");
   const fs::path root = fs::absolute(workspace);
   const std::string plan_path = (root / "relight" / "plan" / "plan.json").string();
   const Plan plan = ReadPlan(plan_path);
@@ -302,7 +302,7 @@ AugmentStageResult RunAugmentStage(const std::string& workspace, int partition, 
   const std::string cues_path = (root / "relight" / "cues" / "cues.json").string();
   const CuesFile cues = ReadCuesFile(cues_path);
   const AssetDescription point_asset = DescribeWorkspace(root.string(), ModelSet::kPointLight);
-  json frames_fingerprint = {{"cues", Hash(cues_path)}, {"plan", Hash(plan_path)}, {"options", options.ToJson()}};
+  json frames_fingerprint = {{"cues", Hash(cues_path)}, {"plan", Hash(plan_path)}, {"options", OptionsToJson(options)}};
   for (const std::string& model : point_asset.partition_models) {
     frames_fingerprint["models"].push_back(model.empty() ? "" : Hash(model + "/model.pt"));
   }
@@ -386,7 +386,7 @@ AugmentStageResult RunAugmentStage(const std::string& workspace, int partition, 
 
   // Fine-tuning from the point-light checkpoint.
   const json fingerprint = {{"frames", frames_fingerprint}, {"source", Hash((source / "checkpoint" / "model.pt").string())},
-                            {"train", train.optimizer.ToJson()}};
+                            {"train", OptionsToJson(train.optimizer)}};
   const fs::path fingerprint_path = dir / "fingerprint.json";
   std::unique_ptr<Trainer> trainer;
   int64_t start_step = 0;

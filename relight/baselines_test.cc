@@ -212,19 +212,17 @@ TEST_F(BaselinesTest, ShBaselineFlowsThroughEveryStepAndCompares) {
 TEST(BaselineOptions, UnknownInputsAndBasesAreErrors) {
   for (const char* bad : {"cues: {input: dnr}\n", "cues: {bases: [lambert, ggx_0.5]}\n", "cues: {bases: []}\n",
                           "cues: {base: [lambert]}\n"}) {
-    RelightOptions options;
     OptionsReader reader = OptionsReader::FromString(bad);
-    EXPECT_THROW(options.Read(reader), Error) << bad;
+    EXPECT_THROW(ReadRelightSection(reader), Error) << bad;
   }
   // The residual model regresses the 5 default cues: other cues need dnl.
   OptionsReader residual = OptionsReader::FromString("cues: {bases: [ggx_0.13, lambert]}\n");
-  EXPECT_THROW(RelightOptions().Read(residual), Error);
-  RelightOptions options;
+  EXPECT_THROW(ReadRelightSection(residual), Error);
   OptionsReader reader = OptionsReader::FromString("cues: {bases: [ggx_0.13, lambert]}\nmodel: {variant: dnl}\n");
-  options.Read(reader);
+  const RelightOptions options = ReadRelightSection(reader);
   EXPECT_EQ(options.cues.Format().light_channels(), 6);
-  EXPECT_EQ(options.cues.ToJson()["bases"], json({"ggx_0.13", "lambert"}));
-  EXPECT_FALSE(RelightOptions().cues.ToJson().contains("bases"));  // defaults: records as before
+  EXPECT_EQ(OptionsToJson(options.cues)["bases"], json({"ggx_0.13", "lambert"}));
+  EXPECT_FALSE(OptionsToJson(RelightOptions().cues).contains("bases"));  // defaults: records as before
 }
 
 }  // namespace

@@ -43,16 +43,17 @@ ModelOptions ModelOptionsFromJson(const nlohmann::json& j_in, const std::string&
   }
   OptionsReader reader = OptionsReader::FromString(j.dump(), where);
   ModelOptions options;
-  options.Read(reader);
+  ReadOptions(reader, &options);
   options.format = CueFormat::FromJson(format, where);  // absent: the default (older checkpoints)
-  options.Check();
+  CheckOptions(options, where);
   return options;
 }
 
 TrainOptions TrainOptionsFromJson(const nlohmann::json& j, const std::string& where) {
   OptionsReader reader = OptionsReader::FromString(j.dump(), where);
   TrainOptions options;
-  options.Read(reader);
+  ReadOptions(reader, &options);
+  CheckOptions(options, where);
   return options;
 }
 
@@ -68,8 +69,8 @@ void SaveCheckpoint(const std::filesystem::path& dir, Trainer& trainer) {
   WithTorchErrors(rng_path, "write", [&] { torch::save(trainer.generator().get_state(), rng_path.string()); });
   nlohmann::json body = {
       {"step", trainer.step()},
-      {"model_options", trainer.model()->options().ToJson()},
-      {"train_options", trainer.train_options().ToJson()},
+      {"model_options", OptionsToJson(trainer.model()->options())},
+      {"train_options", OptionsToJson(trainer.train_options())},
       {"torch_version", TORCH_VERSION},
       {"files", {{"model", kModelFile}, {"optimizer", kOptimizerFile}, {"rng", kRngFile}}},
   };

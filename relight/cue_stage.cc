@@ -132,7 +132,7 @@ Eigen::Vector3d MeasureTableAlbedo(const fs::path& root, const fs::path& mesh_pa
 
 CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions& options,
                             RunRecord& record) {
-  options.Check();
+  CheckOptions(options, "cues");
   const fs::path root(workspace);
   const fs::path cameras_path = root / "calib" / "cameras.json";
   const fs::path lights_path = root / "calib" / "lights.json";
@@ -178,7 +178,7 @@ CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions&
   if (without_light > 0) spdlog::warn("cues: {} phone V frames have no flash position and are skipped", without_light);
 
   // Resume only with identical inputs and options.
-  const json fingerprint = {{"options", options.ToJson()},
+  const json fingerprint = {{"options", OptionsToJson(options)},
                             {"cameras", HashFile(cameras_path.string())},
                             {"lights", HashFile(lights_path.string())},
                             {"mesh", HashFile(mesh_path.string())}};

@@ -73,34 +73,34 @@ double ResolveSaturationLevel(double level, const std::string& capture_transfer)
   return capture_transfer == "srgb" || capture_transfer == "gamma2.2" ? CueFitOptions::kSdrSaturationLevel : 0.0;
 }
 
-void CueFitOptions::Read(OptionsReader& reader) {
-  reader.ReadRange("smoothness_diffuse", &smoothness_diffuse, 0.0, 1e6);
-  reader.ReadRange("smoothness_specular", &smoothness_specular, 0.0, 1e6);
-  reader.ReadRange("ridge", &ridge, 1e-9, 1e6);
-  reader.ReadRange("iterations_per_level", &iterations_per_level, 1, 100000);
-  reader.ReadRange("tolerance", &tolerance, 0.0, 1.0);
-  reader.ReadRange("coarse_levels", &coarse_levels, 0, 8);
-  reader.ReadRange("max_pixels", &max_pixels, int64_t{1000}, int64_t{1} << 40);
-  reader.ReadRange("saturation_level", &saturation_level, kAutoSaturationLevel, 1e9);
-  reader.ReadRange("saturation_rounds", &saturation_rounds, 0, 100);
-  reader.ReadRange("align_rounds", &align_rounds, 0, 20);
-  reader.ReadRange("max_shift_px", &max_shift_px, 0.0, 100.0);
-  reader.Finish();
+const OptionFields<CueFitOptions>& CueFitOptions::Fields() {
+  using S = CueFitOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("smoothness_diffuse", &S::smoothness_diffuse, 0.0, 1e6, "neighbour coupling of the Lambert weight")
+          .Add("smoothness_specular", &S::smoothness_specular, 0.0, 1e6, "neighbour coupling of the 4 GGX weights")
+          .Add("ridge", &S::ridge, 1e-9, 1e6, "pull towards the global fit (pixels' worth)")
+          .Add("iterations_per_level", &S::iterations_per_level, 1, 100000, "conjugate-gradient iterations per level")
+          .Add("tolerance", &S::tolerance, 0.0, 1.0, "relative residual that ends a level early")
+          .Add("coarse_levels", &S::coarse_levels, 0, 8, "coarser levels solved first (each half the size)")
+          .Add("max_pixels", &S::max_pixels, int64_t{1000}, int64_t{1} << 40,
+               "training pixels kept (evenly strided beyond)")
+          .Add("saturation_level", &S::saturation_level, kAutoSaturationLevel, 1e9,
+               "a training pixel's channel at or above this linear level was clipped by the video: the fit (and the "
+               "training loss) only asks the prediction to be at least its value; -1 (auto) = 0.9 for SDR video "
+               "(capture.json transfer srgb / gamma2.2), else 0; 0 = every pixel an equality")
+          .Add("saturation_rounds", &S::saturation_rounds, 0, 100,
+               "active-set rounds for the clipped channels (each a solve at the final level)")
+          .Add("align_rounds", &S::align_rounds, 0, 20,
+               "> 0: after each solve, shift every frame's image and matte by the sub-pixel translation that best "
+               "matches the fit, then solve again")
+          .Add("max_shift_px", &S::max_shift_px, 0.0, 100.0, "largest alignment shift");
+  return fields;
 }
 
 void CueFitOptions::Check() const {
-  RELIT_REQUIRE(smoothness_diffuse >= 0 && smoothness_specular >= 0 && ridge > 0 && iterations_per_level >= 1 &&
-                    tolerance >= 0 && coarse_levels >= 0 && max_pixels >= 1000 && (saturation_level >= 0 || saturation_level == kAutoSaturationLevel) &&
-                    saturation_rounds >= 0 && align_rounds >= 0 && max_shift_px >= 0,
-                "cue_fit: smoothness >= 0, ridge > 0, iterations_per_level >= 1, coarse_levels >= 0 and "
-                "max_pixels >= 1000, saturation_level >= 0 or -1 (auto), saturation_rounds >= 0, align_rounds >= 0 and max_shift_px >= 0 required");
-}
-
-nlohmann::json CueFitOptions::ToJson() const {
-  return {{"smoothness_diffuse", smoothness_diffuse}, {"smoothness_specular", smoothness_specular},
-          {"ridge", ridge},   {"iterations_per_level", iterations_per_level},
-          {"tolerance", tolerance}, {"coarse_levels", coarse_levels}, {"max_pixels", max_pixels},
-          {"saturation_level", saturation_level}, {"saturation_rounds", saturation_rounds}, {"align_rounds", align_rounds}, {"max_shift_px", max_shift_px}};
+  RELIT_REQUIRE(saturation_level >= 0 || saturation_level == kAutoSaturationLevel,
+                "saturation_level must be >= 0 or -1 (auto), got ", saturation_level);
 }
 
 nlohmann::json CueFitStats::ToJson() const {
@@ -111,7 +111,7 @@ nlohmann::json CueFitStats::ToJson() const {
 
 CueTextureFit::CueTextureFit(int resolution_px, const CueFitOptions& options)
     : resolution_(resolution_px), options_(options) {
-  options_.Check();
+  CheckOptions(options_, "cue_fit");
   RELIT_REQUIRE(resolution_px >= 1, "cue fit: resolution must be >= 1, got ", resolution_px);
 }
 

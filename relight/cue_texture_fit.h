@@ -28,10 +28,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/image.h"
-
-namespace relit {
-class OptionsReader;
-}
+#include "core/option_fields.h"
 
 namespace relit::relight {
 
@@ -78,9 +75,8 @@ struct CueFitOptions {
   int align_rounds = 0;          // 0 = no alignment
   double max_shift_px = 3.0;     // largest shift a frame may take
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<CueFitOptions>& Fields();
+  void Check() const;  // saturation_level >= 0 or auto; ranges: CheckOptions
 };
 
 // `level` itself when >= 0; auto (< 0): kSdrSaturationLevel for a capture

@@ -219,7 +219,7 @@ TEST(CueTextureFitTest, ResolvesTheAutoSaturationLevelFromTheCapture) {
   EXPECT_EQ(ResolveSaturationLevel(0, "srgb"), 0.0);
   CueFitOptions bad;
   bad.saturation_level = -0.5;
-  EXPECT_ANY_THROW(bad.Check());
+  EXPECT_ANY_THROW(CheckOptions(bad));
 }
 
 TEST(CueTextureFitTest, RefusesBadOptionsAndEmptyFits) {

@@ -203,8 +203,8 @@ EvalImageResult TruthNoiseFloor(const TruthView& view, const TruthLight& light, 
 EvalSummary RunEval(const std::string& workspace, const std::string& truth_json, const std::string& out_dir,
                     const EvalOptions& options, const RenderStageOptions& render, RunRecord& record,
                     const OutputGuard* guard) {
-  options.Check();
-  render.Check();
+  CheckOptions(options, "eval");
+  CheckOptions(render, "render");
   const fs::path root = fs::absolute(workspace);
   for (const char* file : {"relight/cues/cues.json", "relight/plan/plan.json"}) {
     RELIT_REQUIRE(fs::exists(root / file), "workspace ", workspace, " is not trained: ", (root / file).string(),
@@ -431,7 +431,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
                    {"pixels", cue_fit ? cue_fit->pixels() : 0}}},
       {"models", asset.partition_models},
       {"zoom_pngs", zooms},
-      {"options", options.ToJson()},
+      {"options", OptionsToJson(options)},
       {"timings_s", record.ToJson()["timings_s"]}};
   if (floors.empty()) spdlog::warn("eval: {} lists no noise twins of its images: the truth's noise floor is not measured "
                                    "(render the capture with a relit-synth that writes them, eval_noise_twin: true)",

@@ -42,7 +42,6 @@
 #include "relight/stage_options.h"
 
 namespace relit {
-class OptionsReader;
 class RunRecord;
 }  // namespace relit
 
@@ -74,9 +73,8 @@ struct EvalOptions {
   double clip_radiance = 1.0;
   bool write_images = true;         // PNGs of renders, error maps and GT
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<EvalOptions>& Fields();
+  void Check() const;  // across fields; ranges and choices: CheckOptions
 };
 
 // One light of truth.json "eval".

@@ -293,20 +293,19 @@ TEST(EvalErrors, UntrainedWorkspaceSaysWhatToRun) {
 }
 
 TEST(EvalOptionsTest, UnknownKeysAndMethodsAreErrors) {
-  RelightOptions options;
   OptionsReader good = OptionsReader::FromString("eval: {methods: [cues_only, model], max_views: 1}\n");
-  options.Read(good);
+  const RelightOptions options = ReadRelightSection(good);
   EXPECT_EQ(options.eval.methods, (std::vector<std::string>{"cues_only", "model"}));
   EXPECT_EQ(options.eval.max_views, 1);
-  RelightOptions other;
   OptionsReader typo = OptionsReader::FromString("eval: {metods: [model]}\n");
-  EXPECT_THROW(other.Read(typo), Error);
+  EXPECT_THROW(ReadRelightSection(typo), Error);
   EvalOptions bad;
   bad.methods = {"model", "nerf"};
-  EXPECT_THROW(bad.Check(), Error);
-  RelightOptions negative_clip;
+  EXPECT_THROW(CheckOptions(bad), Error);
+  bad.methods = {"model", "model"};
+  EXPECT_THROW(CheckOptions(bad), Error);
   OptionsReader clip = OptionsReader::FromString("eval: {clip_radiance: -1}\n");
-  EXPECT_THROW(negative_clip.Read(clip), Error);
+  EXPECT_THROW(ReadRelightSection(clip), Error);
 }
 
 // A highlight the capture saturated: truth 100 (a mirror's reflection of a

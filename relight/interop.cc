@@ -61,9 +61,9 @@ const char* kReadme =
 
 void ExportInterop(const std::string& workspace, const std::string& out_dir, const InteropOptions& options,
                    RunRecord& record) {
-  options.Check();
+  CheckOptions(options, "export");
   fs::create_directories(out_dir);
-  json summary = {{"folder", out_dir}, {"options", options.ToJson()}};
+  json summary = {{"folder", out_dir}, {"options", OptionsToJson(options)}};
   BakedTexture bake;
   {
     auto timer = record.Time("interop_gltf");

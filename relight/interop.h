@@ -29,7 +29,6 @@
 #include "relight/cue_frames.h"
 
 namespace relit {
-class OptionsReader;
 class RunRecord;
 }  // namespace relit
 
@@ -52,9 +51,8 @@ struct InteropOptions {
   double bake_environment_radiance = 1.0;
   double bake_exposure = 1.0;       // linear scale before the sRGB encoding of the texture
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<InteropOptions>& Fields();
+  void Check() const;  // across fields; ranges: CheckOptions
 };
 
 // --- COLMAP ------------------------------------------------------------------

@@ -302,7 +302,7 @@ BakedTexture UnwrapViews(const render::TriangleMesh& mesh_in, int resolution, co
 
 BakedTexture BakePreviewTexture(RelitRenderer& renderer, const render::TriangleMesh& mesh,
                                 const InteropOptions& options, int cue_samples_per_pixel) {
-  options.Check();
+  CheckOptions(options, "export");
   const AssetDescription& asset = renderer.asset();
   Intrinsics intrinsics = asset.camera;
   if (options.bake_width_px > 0) {

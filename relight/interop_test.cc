@@ -522,7 +522,7 @@ TEST(InteropErrors, MissingCalibrationNamesTheStageToRun) {
   EXPECT_FALSE(fs::exists(dir + "/out"));
   InteropOptions bad;
   bad.bake_texture_px = 300;
-  EXPECT_THROW(bad.Check(), Error);
+  EXPECT_THROW(CheckOptions(bad), Error);
   fs::remove_all(dir);
 }
 

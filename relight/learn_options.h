@@ -3,7 +3,8 @@
 // pipeline.yaml's whole `relight:` section with these readers before any
 // step starts (pipeline/stage_check.cc). The torch code that uses them lives
 // in model.h, neural_texture.h, networks.h, train_stage.h and augment.h.
-// docs/relight.md explains every key.
+// Defaults live here, keys, ranges and docs in the field tables
+// (relight_options.cc), from which docs/relight.md's tables are generated.
 #pragma once
 
 #include <cstdint>
@@ -11,12 +12,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/option_fields.h"
 #include "relight/cue_frames.h"
 #include "relight/cue_texture_fit.h"
-
-namespace relit {
-class OptionsReader;
-}
 
 namespace relit::relight {
 
@@ -40,9 +38,10 @@ struct NeuralTextureOptions {
   // Number of mip levels actually used.
   int levels() const;
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  // Not a section of the file (ModelOptions::TextureOptions() builds it):
+  // the table holds its ranges.
+  static const OptionFields<NeuralTextureOptions>& Fields();
+  void Check() const;  // across fields; ranges: CheckOptions
 };
 
 struct GeneratorOptions {
@@ -111,11 +110,13 @@ struct ModelOptions {
   GeneratorOptions MaskOptions() const;
   bool residual() const { return variant == "residual"; }
 
-  void Read(OptionsReader& reader);
+  // The JSON (OptionsToJson) holds "input"/"bases" (format) only when not
+  // the default, so records of default models are what they were before the
+  // format existed.
+  static const OptionFields<ModelOptions>& Fields();
+  // Across fields (the networks' options, the format); ranges and choices:
+  // CheckOptions.
   void Check() const;
-  // With "input"/"bases" (format) only when not the default, so records of
-  // default models are what they were before the format existed.
-  nlohmann::json ToJson() const;
 };
 
 struct TrainOptions {
@@ -143,9 +144,8 @@ struct TrainOptions {
   uint64_t seed = 1;            // model initialisation and crop positions
   int threads = 2;              // torch intra-op threads
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<TrainOptions>& Fields();
+  void Check() const;  // across fields and bounds a range cannot say; ranges: CheckOptions
 };
 
 struct TrainStageOptions {
@@ -162,9 +162,7 @@ struct TrainStageOptions {
   bool validate_corrections = false;
   TrainOptions optimizer;        // Adam, crops, seed, threads (same keys, same level)
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<TrainStageOptions>& Fields();
 };
 
 struct AugmentOptions {
@@ -185,9 +183,8 @@ struct AugmentOptions {
   int log_every = 10;
   uint64_t seed = 1;
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<AugmentOptions>& Fields();
+  void Check() const;  // across fields and the file system; ranges and choices: CheckOptions
 };
 
 }  // namespace relit::relight

@@ -133,7 +133,7 @@ DnlModelImpl::DnlModelImpl(const ModelOptions& options)
     : options_(options),
       device_(ResolveDevice(options.device)),
       encoding_(RequireMaxRadiance(options.max_radiance)) {
-  options_.Check();
+  CheckOptions(options_, "model");
   texture_ = register_module("texture", NeuralTexture(options_.TextureOptions()));
   renderer_ = register_module("renderer", ResnetGenerator(options_.RendererOptions()));
   mask_net_ = register_module("mask", ResnetGenerator(options_.MaskOptions()));
@@ -218,8 +218,8 @@ torch::Tensor DnlModelImpl::Render(const Batch& batch) {
 Trainer::Trainer(const ModelOptions& model_options, const TrainOptions& train_options)
     : train_options_(train_options),
       generator_(at::make_generator<at::CPUGeneratorImpl>(train_options.seed)) {
-  train_options_.Check();
-  model_options.Check();
+  CheckOptions(train_options_, "train");
+  CheckOptions(model_options, "model");
   ConfigureTorch(train_options_.threads, ResolveDevice(model_options.device));
   torch::manual_seed(train_options_.seed);
   model_ = DnlModel(model_options);

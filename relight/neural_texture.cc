@@ -71,7 +71,7 @@ torch::Tensor SampleMipChain(const std::vector<torch::Tensor>& chain, const torc
 }
 
 NeuralTextureImpl::NeuralTextureImpl(const NeuralTextureOptions& options) : options_(options) {
-  options_.Check();
+  CheckOptions(options_, "texture");
   const int64_t r = options_.resolution_px;
   texels_ = register_parameter(
       "texels", torch::empty({1, options_.channels(), r, r}).uniform_(options_.init_min, options_.init_max));

@@ -208,7 +208,7 @@ TEST(NeuralTextureTest, OptionsAreChecked) {
   EXPECT_EQ(options.channels(), 30);
   EXPECT_EQ(options.levels(), 9);
   options.resolution_px = 100;
-  EXPECT_THROW(options.Check(), Error);
+  EXPECT_THROW(CheckOptions(options), Error);
   options.resolution_px = 64;
   options.mip_levels = 3;
   EXPECT_EQ(options.levels(), 3);

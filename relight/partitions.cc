@@ -100,43 +100,42 @@ PartitionLayoutOptions PartitionLayoutOptionsFromJson(const nlohmann::json& j, c
   return options;
 }
 
-void PartitionLayoutOptions::Read(OptionsReader& reader) {
-  reader.Read("layout", &layout);
-  reader.Read("elevation_deg", &elevation_deg);
-  reader.Read("azimuth_deg", &azimuth_deg);
-  reader.Finish();
-  Check();
+const OptionFields<PartitionLayoutOptions>& PartitionLayoutOptions::Fields() {
+  using S = PartitionLayoutOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("layout", &S::layout, {"dnl13", "single", "custom"},
+               "dnl13: 13 vertices, 18 triangles, as in DNL; single: one partition holding every frame; custom: "
+               "the vertices below")
+          .Add("elevation_deg", &S::elevation_deg, "custom only: the vertices' elevations, in [-90, 90]")
+          .Add("azimuth_deg", &S::azimuth_deg, "custom only: their azimuths, same length")
+          .OnToJson([](const S& s, nlohmann::json* json) {
+            if (s.layout != "custom") {
+              json->erase("elevation_deg");
+              json->erase("azimuth_deg");
+            }
+          });
+  return fields;
 }
 
 void PartitionLayoutOptions::Check() const {
-  RELIT_REQUIRE(layout == "dnl13" || layout == "single" || layout == "custom",
-                "partitions.layout must be dnl13, single or custom, got '", layout, "'");
   if (layout != "custom") {
     RELIT_REQUIRE(elevation_deg.empty() && azimuth_deg.empty(),
-                  "partitions.elevation_deg/azimuth_deg are only used with layout: custom");
+                  "elevation_deg/azimuth_deg are only used with layout: custom");
     return;
   }
   RELIT_REQUIRE(!elevation_deg.empty() && elevation_deg.size() == azimuth_deg.size(),
-                "partitions: layout custom needs elevation_deg and azimuth_deg of equal, "
+                "layout custom needs elevation_deg and azimuth_deg of equal, "
                 "non-zero length (got ", elevation_deg.size(), " and ", azimuth_deg.size(), ")");
   RELIT_REQUIRE(static_cast<int>(elevation_deg.size()) <= PartitionLayout::kMaxVertices,
-                "partitions: at most ", PartitionLayout::kMaxVertices, " vertices");
+                "at most ", PartitionLayout::kMaxVertices, " vertices");
   for (double e : elevation_deg) {
-    RELIT_REQUIRE(e >= -90.0 && e <= 90.0, "partitions.elevation_deg must be in [-90, 90], got ", e);
+    RELIT_REQUIRE(e >= -90.0 && e <= 90.0, "elevation_deg must be in [-90, 90], got ", e);
   }
-}
-
-nlohmann::json PartitionLayoutOptions::ToJson() const {
-  nlohmann::json j = {{"layout", layout}};
-  if (layout == "custom") {
-    j["elevation_deg"] = elevation_deg;
-    j["azimuth_deg"] = azimuth_deg;
-  }
-  return j;
 }
 
 PartitionLayout PartitionLayout::FromOptions(const PartitionLayoutOptions& options) {
-  options.Check();
+  CheckOptions(options, "partitions");
   if (options.layout == "single") return Single();
   if (options.layout == "dnl13") return Dnl13();
   std::vector<Eigen::Vector3d> vertices;

@@ -28,9 +28,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
-namespace relit {
-class OptionsReader;
-}
+#include "core/option_fields.h"
 
 namespace relit::relight {
 
@@ -43,12 +41,12 @@ struct PartitionLayoutOptions {
   std::vector<double> elevation_deg;  // custom only, in [-90, 90]
   std::vector<double> azimuth_deg;    // custom only, same length
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  // The JSON (OptionsToJson) holds the vertex lists only for custom.
+  static const OptionFields<PartitionLayoutOptions>& Fields();
+  void Check() const;  // across fields; choices: CheckOptions
 };
 
-// The inverse of PartitionLayoutOptions::ToJson (absent vertex lists = empty).
+// The inverse of OptionsToJson(PartitionLayoutOptions) (absent vertex lists = empty).
 // Throws relit::Error naming `where` when "layout" is missing.
 PartitionLayoutOptions PartitionLayoutOptionsFromJson(const nlohmann::json& j, const std::string& where);
 

@@ -195,14 +195,16 @@ TEST(PartitionsTest, OptionsFromYaml) {
   OptionsReader reader = OptionsReader::FromString(
       "layout: custom\nelevation_deg: [90, 30, 30, 30]\nazimuth_deg: [0, 0, 120, 240]\n");
   PartitionLayoutOptions options;
-  options.Read(reader);
+  ReadOptions(reader, &options);
+  CheckOptions(options);
   const PartitionLayout layout = PartitionLayout::FromOptions(options);
   EXPECT_EQ(layout.partition_count(), 4);
   ExpectValidBlends(layout, 2000, 4);
   OptionsReader bad = OptionsReader::FromString("layout: dnl12\n");
   PartitionLayoutOptions bad_options;
-  EXPECT_THROW(bad_options.Read(bad), Error);
-  EXPECT_EQ(PartitionLayoutOptions().ToJson()["layout"], "dnl13");
+  EXPECT_THROW(ReadOptions(bad, &bad_options), Error);
+  EXPECT_EQ(OptionsToJson(PartitionLayoutOptions()), nlohmann::json({{"layout", "dnl13"}}));
+  EXPECT_EQ(OptionsToJson(options).at("azimuth_deg"), nlohmann::json({0.0, 0.0, 120.0, 240.0}));
 }
 
 }  // namespace

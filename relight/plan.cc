@@ -89,7 +89,7 @@ void WritePlan(const std::string& path, const Plan& plan) {
                           {"validation_frames", validation}});
   }
   WriteJsonFile(path, Plan::kKind, Plan::kVersion,
-                {{"layout_options", plan.layout_options.ToJson()},
+                {{"layout_options", OptionsToJson(plan.layout_options)},
                  {"layout", plan.Layout().ToJson()},
                  {"object_centre_m", ToJson(plan.object_centre_m)},
                  {"object_radius_m", plan.object_radius_m},
@@ -102,7 +102,7 @@ void WritePlan(const std::string& path, const Plan& plan) {
 
 Plan MakePlan(const std::string& workspace, const DatasetOptions& dataset,
               const PartitionLayoutOptions& layout_options) {
-  dataset.Check();
+  CheckOptions(dataset, "dataset");
   const fs::path root(workspace);
   const std::string cues_path = (root / "relight" / "cues" / "cues.json").string();
   RELIT_REQUIRE(fs::exists(cues_path), cues_path, " is missing: run `relit-relight cues` first");

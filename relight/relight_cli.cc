@@ -117,7 +117,7 @@ int RunRelight(int argc, char** argv) {
   RelightOptions options;
   if (!config.empty()) {
     OptionsReader reader = OptionsReader::FromFile(config);
-    options.Read(reader);
+    options = ReadRelightSection(reader);
   }
   options.workspace = workspace;
   // Export flags given on the command line win over the config's `export:`.
@@ -133,11 +133,13 @@ int RunRelight(int argc, char** argv) {
   if (!log_level.empty()) options.log_level = log_level;
   const spdlog::level::level_enum level = ParseLogLevel(options.log_level);
   SetVerbosity(level);
-  options.Check();
+  RELIT_REQUIRE(!workspace.empty(), "relight: --workspace is required");
+  RELIT_REQUIRE(fs::is_directory(workspace), "relight: workspace ", workspace, " is not a folder");
+  CheckOptions(options);
   const fs::path relight_dir = fs::path(workspace) / "relight";
   RunRecord record("relit-relight");
   record.SetCommandLine(argc, argv);
-  record.SetOptions(options.ToJson());
+  record.SetOptions(OptionsToJson(options));
   // A trained model must read the light input the config describes.
   if (augment->parsed() || render->parsed() || eval->parsed() || export_asset->parsed()) {
     RequireWorkspaceFormat(workspace, options.cues.Format());

@@ -1,4 +1,4 @@
-// The readers of the relight stage's options (relight_options.h,
+// The field tables of the relight stage's options (relight_options.h,
 // learn_options.h, eval.h, interop.h): no LibTorch, so the orchestrator can
 // check a whole `relight:` section (relit_relight_data).
 #include "relight/relight_options.h"
@@ -11,7 +11,7 @@
 #include <utility>
 
 #include "core/error.h"
-#include "core/options.h"
+#include "core/log.h"
 
 namespace relit::relight {
 
@@ -38,30 +38,23 @@ int NeuralTextureOptions::levels() const {
   return mip_levels == 0 ? full : std::min(mip_levels, full);
 }
 
-void NeuralTextureOptions::Read(OptionsReader& reader) {
-  reader.ReadRange("resolution_px", &resolution_px, 1, 8192);
-  reader.ReadRange("channels_per_basis", &channels_per_basis, 1, 64);
-  reader.ReadRange("mip_levels", &mip_levels, 0, 14);
-  reader.Read("init_min", &init_min);
-  reader.Read("init_max", &init_max);
-  reader.Finish();
-  Check();
+const OptionFields<NeuralTextureOptions>& NeuralTextureOptions::Fields() {
+  using S = NeuralTextureOptions;
+  static const auto fields = OptionFields<S>()
+                                 .Add("resolution_px", &S::resolution_px, 1, 8192, "level 0 size; a power of two")
+                                 .Add("channels_per_basis", &S::channels_per_basis, 1, 64, "C")
+                                 .Add("mip_levels", &S::mip_levels, 0, 14, "0 = full chain")
+                                 .Add("init_min", &S::init_min, "initial texels uniform in [init_min, init_max]")
+                                 .Add("init_max", &S::init_max, "see init_min");
+  return fields;
 }
 
 void NeuralTextureOptions::Check() const {
-  RELIT_REQUIRE(resolution_px >= 1 && resolution_px <= 8192 && (resolution_px & (resolution_px - 1)) == 0,
+  RELIT_REQUIRE((resolution_px & (resolution_px - 1)) == 0,
                 "texture resolution_px must be a power of two in [1, 8192], got ", resolution_px);
-  RELIT_REQUIRE(channels_per_basis >= 1 && channels_per_basis <= 64,
-                "channels_per_basis must be in [1, 64], got ", channels_per_basis);
   RELIT_REQUIRE(basis_count >= 0 && extra_channels >= 0 && channels() >= 1, "texture: no channels");
-  RELIT_REQUIRE(mip_levels >= 0 && mip_levels <= 14, "mip_levels must be in [0, 14], got ", mip_levels);
   RELIT_REQUIRE(std::isfinite(init_min) && std::isfinite(init_max) && init_min <= init_max,
                 "texture init_min must be <= init_max, got ", init_min, " > ", init_max);
-}
-
-nlohmann::json NeuralTextureOptions::ToJson() const {
-  return {{"resolution_px", resolution_px}, {"channels_per_basis", channels_per_basis},
-          {"mip_levels", mip_levels}, {"init_min", init_min}, {"init_max", init_max}};
 }
 
 void GeneratorOptions::Check() const {
@@ -116,84 +109,76 @@ GeneratorOptions ModelOptions::MaskOptions() const {
   return g;
 }
 
-void ModelOptions::Read(OptionsReader& reader) {
-  reader.Read("variant", &variant);
-  reader.Read("cue_fit", &cue_fit);
-  reader.ReadRange("texture_resolution_px", &texture_resolution_px, 1, 8192);
-  reader.ReadRange("object_window_margin_px", &object_window_margin_px, 0, 4096);
-  reader.ReadRange("channels_per_basis", &channels_per_basis, 1, 64);
-  reader.ReadRange("mip_levels", &mip_levels, 0, 14);
-  reader.ReadRange("ngf", &ngf, 1, 512);
-  reader.ReadRange("n_blocks", &n_blocks, 0, 64);
-  reader.ReadRange("mask_ngf", &mask_ngf, 1, 512);
-  reader.ReadRange("mask_n_blocks", &mask_n_blocks, 0, 64);
-  reader.ReadRange("mask_band_px", &mask_band_px, 0, 4096);
-  reader.Read("upsampling", &upsampling);
-  reader.Read("norm", &norm);
-  reader.Read("input_skip", &input_skip);
-  reader.ReadRange("texture_init_spread", &texture_init_spread, 0.0, 1.0);
-  reader.Read("max_radiance", &max_radiance);
-  reader.Read("device", &device);
-  reader.Finish();
-  Check();
+const OptionFields<ModelOptions>& ModelOptions::Fields() {
+  using S = ModelOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("variant", &S::variant, {"residual", "dnl"},
+               "residual: cue regression + corrections; dnl: Deferred Neural Lighting's networks (\"Model variants\")")
+          .Add("cue_fit", &S::cue_fit, {"smooth", "per_texel"},
+               "the residual variant's regression: bilinear (\"Smooth cue fit\") or the cues-only baseline's "
+               "nearest-texel fit")
+          .Add("texture_resolution_px", &S::texture_resolution_px, 1, 8192,
+               "neural texture level 0 (and the residual variant's regression grid), a power of two")
+          .Add("object_window_margin_px", &S::object_window_margin_px, 0, 4096,
+               "the networks see the object's window plus this margin; 0 = random crops and whole frames, as DNL")
+          .Add("channels_per_basis", &S::channels_per_basis, 1, 64, "C; the texture has bases x C channels")
+          .Add("mip_levels", &S::mip_levels, 0, 14, "0 = full chain")
+          .Add("ngf", &S::ngf, 1, 512, "renderer width (DNL: 64)")
+          .Add("n_blocks", &S::n_blocks, 0, 64, "renderer residual blocks (DNL: 9)")
+          .Add("mask_ngf", &S::mask_ngf, 1, 512, "mask network width")
+          .Add("mask_n_blocks", &S::mask_n_blocks, 0, 64, "mask network residual blocks")
+          .Add("mask_band_px", &S::mask_band_px, 0, 4096,
+               "residual variant: the mask network corrects the coverage only within this many pixels of it; "
+               "alpha is 0 farther out (0 = everywhere, as checkpoints from before it)")
+          .Add("upsampling", &S::upsampling, {"transposed", "resize_conv"}, "the networks' upsampling")
+          .Add("norm", &S::norm, {"instance", "none"}, "both networks' normalisation (DNL: instance)")
+          .Add("input_skip", &S::input_skip,
+               "the renderer's last 7x7 conv also reads the network input (not in DNL; \"Learning check\")")
+          .Add("texture_init_spread", &S::texture_init_spread, 0.0, 1.0, "texels start uniform in [1 - s, 1 + s]")
+          .Add("max_radiance", &S::max_radiance, "M of the log encoding; 0 = set from the data")
+          .Add("device", &S::device, {"cpu", "cuda", "auto"}, "auto: cuda when available")
+          .OnToJson([](const S& s, nlohmann::json* json) {
+            if (!s.format.is_default()) json->update(s.format.ToJson());
+          });
+  return fields;
 }
 
 void ModelOptions::Check() const {
   format.Check();
-  TextureOptions().Check();
+  CheckOptions(TextureOptions(), "texture");
   RendererOptions().Check();
   MaskOptions().Check();
   RELIT_REQUIRE(std::isfinite(max_radiance) && max_radiance >= 0,
                 "model max_radiance must be finite and >= 0 (0 = set from the data), got ", max_radiance);
-  RELIT_REQUIRE(device == "cpu" || device == "cuda" || device == "auto",
-                "model device must be cpu, cuda or auto, got '", device, "'");
-  RELIT_REQUIRE(variant == "residual" || variant == "dnl", "model variant must be residual or dnl, got '", variant,
-                "'");
-  RELIT_REQUIRE(cue_fit == "smooth" || cue_fit == "per_texel", "model cue_fit must be smooth or per_texel, got '",
-                cue_fit, "'");
   RELIT_REQUIRE(!residual() || format.is_default(),
                 "model variant residual starts from a least-squares regression of the 5 default radiance cues: "
                 "it needs the default cues (no cues.input: sh, no other cues.bases); use model variant: dnl");
 }
 
-nlohmann::json ModelOptions::ToJson() const {
-  nlohmann::json j = {{"variant", variant},
-          {"cue_fit", cue_fit},
-          {"texture_resolution_px", texture_resolution_px},
-          {"object_window_margin_px", object_window_margin_px},
-          {"channels_per_basis", channels_per_basis},
-          {"mip_levels", mip_levels},
-          {"ngf", ngf},
-          {"n_blocks", n_blocks},
-          {"mask_ngf", mask_ngf},
-          {"mask_n_blocks", mask_n_blocks},
-          {"mask_band_px", mask_band_px},
-          {"upsampling", upsampling},
-          {"norm", norm},
-          {"input_skip", input_skip},
-          {"texture_init_spread", texture_init_spread},
-          {"max_radiance", max_radiance},
-          {"device", device}};
-  if (!format.is_default()) j.update(format.ToJson());
-  return j;
-}
-
-void TrainOptions::Read(OptionsReader& reader) {
-  reader.Read("learning_rate", &learning_rate);
-  reader.Read("texture_learning_rate", &texture_learning_rate);
-  reader.Read("regression_learning_rate", &regression_learning_rate);
-  OptionsReader fit_reader = reader.Child("cue_fit");
-  cue_fit.Read(fit_reader);
-  reader.Read("beta1", &beta1);
-  reader.Read("beta2", &beta2);
-  reader.ReadRange("batch_size", &batch_size, 1, 1024);
-  reader.ReadRange("crop_px", &crop_px, 0, 8192);
-  reader.Read("mask_loss_weight", &mask_loss_weight);
-  reader.ReadRange("matte_threshold", &matte_threshold, 0.0, 1.0);
-  reader.Read("seed", &seed);
-  reader.ReadRange("threads", &threads, 1, 256);
-  reader.Finish();
-  Check();
+const OptionFields<TrainOptions>& TrainOptions::Fields() {
+  using S = TrainOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("learning_rate", &S::learning_rate, "the networks' Adam rate, in (0, 1)")
+          .Add("texture_learning_rate", &S::texture_learning_rate,
+               "the neural texture's Adam rate, in [0, 1); 0 = learning_rate")
+          .Add("regression_learning_rate", &S::regression_learning_rate,
+               "the residual variant's regression weights' Adam rate, in [0, 1); 0 = keep the least-squares fit")
+          .Section("cue_fit", &S::cue_fit)
+          .Add("beta1", &S::beta1, "Adam beta1, in [0, 1)")
+          .Add("beta2", &S::beta2, "Adam beta2, in [0, 1)")
+          .Add("batch_size", &S::batch_size, 1, 1024, "frames per step")
+          .Add("crop_px", &S::crop_px, 0, 8192,
+               "random square crops (only with model.object_window_margin_px: 0); 0 = whole frames, "
+               "else a multiple of 4 >= 8")
+          .Add("mask_loss_weight", &S::mask_loss_weight, "weight of the mask loss; >= 0")
+          .Add("matte_threshold", &S::matte_threshold, 0.0, 1.0,
+               "the captured frames' mattes are thresholded at this alpha for the loss weights and the mask's "
+               "target; 0 = soft mattes (\"Alpha\")")
+          .Add("seed", &S::seed, "model initialisation and crop positions")
+          .Add("threads", &S::threads, 1, 256, "torch intra-op threads");
+  return fields;
 }
 
 void TrainOptions::Check() const {
@@ -204,226 +189,150 @@ void TrainOptions::Check() const {
                 "regression_learning_rate must be in [0, 1) (0 = keep the least-squares fit), got ",
                 regression_learning_rate);
   RELIT_REQUIRE(beta1 >= 0 && beta1 < 1 && beta2 >= 0 && beta2 < 1, "Adam beta1/beta2 must be in [0, 1)");
-  RELIT_REQUIRE(batch_size >= 1, "batch_size must be >= 1, got ", batch_size);
   RELIT_REQUIRE(crop_px == 0 || (crop_px >= 8 && crop_px % 4 == 0),
                 "crop_px must be 0 (no crop) or a multiple of 4 that is >= 8, got ", crop_px);
   RELIT_REQUIRE(mask_loss_weight >= 0 && std::isfinite(mask_loss_weight), "mask_loss_weight must be >= 0");
-  RELIT_REQUIRE(threads >= 1 && threads <= 256, "threads must be in [1, 256], got ", threads);
-  cue_fit.Check();
 }
 
-nlohmann::json TrainOptions::ToJson() const {
-  return {{"learning_rate", learning_rate}, {"texture_learning_rate", texture_learning_rate},
-          {"regression_learning_rate", regression_learning_rate}, {"beta1", beta1}, {"beta2", beta2},
-          {"batch_size", batch_size}, {"crop_px", crop_px}, {"mask_loss_weight", mask_loss_weight},
-          {"matte_threshold", matte_threshold},
-          {"seed", seed}, {"threads", threads}, {"cue_fit", cue_fit.ToJson()}};
+const OptionFields<TrainStageOptions>& TrainStageOptions::Fields() {
+  using S = TrainStageOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("steps", &S::steps, 1, 100000000, "optimisation steps per partition")
+          .Add("checkpoint_every", &S::checkpoint_every, 1, 100000000, "steps between checkpoints")
+          .Add("validate_every", &S::validate_every, 0, 100000000, "steps between validations; 0 = only at the end")
+          .Add("log_every", &S::log_every, 1, 100000000, "steps between log lines")
+          .Add("max_validation_frames", &S::max_validation_frames, 0, 1000, "whole-frame renders per validation")
+          .Add("validate_corrections", &S::validate_corrections,
+               "residual model: after training, each correction network stays only if it beats the cue regression "
+               "/ the proxy's coverage on the validation frames (recorded in train.json corrections); off by "
+               "default: the choice is saved into the checkpoint, so a continued training would not reproduce an "
+               "uninterrupted run")
+          .Inline(&S::optimizer);
+  return fields;
 }
 
-void TrainStageOptions::Read(OptionsReader& reader) {
-  reader.ReadRange("steps", &steps, 1, 100000000);
-  reader.ReadRange("checkpoint_every", &checkpoint_every, 1, 100000000);
-  reader.ReadRange("validate_every", &validate_every, 0, 100000000);
-  reader.ReadRange("log_every", &log_every, 1, 100000000);
-  reader.ReadRange("max_validation_frames", &max_validation_frames, 0, 1000);
-  reader.Read("validate_corrections", &validate_corrections);
-  optimizer.Read(reader);  // the optimiser's keys sit at the same level; it calls Finish()
-  Check();
-}
-
-void TrainStageOptions::Check() const {
-  RELIT_REQUIRE(steps >= 1, "train.steps must be >= 1");
-  RELIT_REQUIRE(checkpoint_every >= 1 && log_every >= 1, "train.checkpoint_every and train.log_every must be >= 1");
-  RELIT_REQUIRE(validate_every >= 0 && max_validation_frames >= 0,
-                "train.validate_every and train.max_validation_frames must be >= 0");
-  optimizer.Check();
-}
-
-nlohmann::json TrainStageOptions::ToJson() const {
-  json j = optimizer.ToJson();
-  j["steps"] = steps;
-  j["checkpoint_every"] = checkpoint_every;
-  j["validate_every"] = validate_every;
-  j["log_every"] = log_every;
-  j["max_validation_frames"] = max_validation_frames;
-  j["validate_corrections"] = validate_corrections;
-  return j;
-}
-
-void AugmentOptions::Read(OptionsReader& r) {
-  r.Read("enabled", &enabled);
-  r.ReadRange("maps", &maps, 0, 100000);
-  r.Read("map_dir", &map_dir);
-  r.ReadRange("map_width_px", &map_width_px, 16, 8192);
-  r.ReadRange("maps_per_view", &maps_per_view, 1, 1000);
-  r.ReadRange("directions", &directions, 1, 100000);
-  r.Read("sampling", &sampling);
-  r.ReadRange("views", &views, 0, 1000000);
-  r.ReadRange("resolution_scale", &resolution_scale, 0.05, 1.0);
-  r.ReadRange("samples_per_pixel", &samples_per_pixel, 1, 1 << 16);
-  r.ReadRange("map_samples_per_pixel", &map_samples_per_pixel, 1, 1 << 16);
-  r.ReadRange("exposure", &exposure, 1e-6, 1e6);
-  r.ReadRange("steps", &steps, 1, 100000000);
-  r.ReadRange("checkpoint_every", &checkpoint_every, 1, 100000000);
-  r.ReadRange("log_every", &log_every, 1, 100000000);
-  r.Read("seed", &seed);
-  r.Finish();
-  Check();
+const OptionFields<AugmentOptions>& AugmentOptions::Fields() {
+  using S = AugmentOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("enabled", &S::enabled, "the pipeline runs the augment steps")
+          .Add("maps", &S::maps, 0, 100000, "procedural environment maps in the set")
+          .Add("map_dir", &S::map_dir, "a folder of the user's .exr/.hdr maps (equirectangular, +Z up) added to the set")
+          .Add("map_width_px", &S::map_width_px, 16, 8192, "procedural map width; even")
+          .Add("maps_per_view", &S::maps_per_view, 1, 1000, "maps drawn per augmented view")
+          .Add("directions", &S::directions, 1, 100000, "directional lights per view")
+          .Add("sampling", &S::sampling, {"importance", "all"},
+               "the directions: importance (a mixture of the view's maps) or all (a fixed Fibonacci set, "
+               "Voronoi-cell weights)")
+          .Add("views", &S::views, 0, 1000000, "augmented training views per partition, evenly spread; 0 = all")
+          .Add("resolution_scale", &S::resolution_scale, 0.05, 1.0, "augmented frame size / training frame size")
+          .Add("samples_per_pixel", &S::samples_per_pixel, 1, 1 << 16, "cue paths per pixel under each directional light")
+          .Add("map_samples_per_pixel", &S::map_samples_per_pixel, 1, 1 << 16, "cue paths per pixel under a map")
+          .Add("exposure", &S::exposure, 1e-6, 1e6, "map irradiance / the flash's irradiance at the capture distance")
+          .Add("steps", &S::steps, 1, 100000000, "fine-tuning steps, alternating captured and augmented frames")
+          .Add("checkpoint_every", &S::checkpoint_every, 1, 100000000, "steps between checkpoints")
+          .Add("log_every", &S::log_every, 1, 100000000, "steps between log lines")
+          .Add("seed", &S::seed, "map family, draws and directions");
+  return fields;
 }
 
 void AugmentOptions::Check() const {
-  RELIT_REQUIRE(sampling == "importance" || sampling == "all",
-                "augment.sampling must be 'importance' or 'all', got '", sampling, "'");
-  RELIT_REQUIRE(maps >= 0 && maps_per_view >= 1 && directions >= 1, "augment.maps must be >= 0, "
-                "augment.maps_per_view and augment.directions >= 1");
-  RELIT_REQUIRE(map_width_px >= 16 && map_width_px % 2 == 0, "augment.map_width_px must be even and >= 16");
-  RELIT_REQUIRE(resolution_scale > 0 && resolution_scale <= 1, "augment.resolution_scale must be in (0, 1]");
-  RELIT_REQUIRE(steps >= 1 && checkpoint_every >= 1 && log_every >= 1,
-                "augment.steps, checkpoint_every and log_every must be >= 1");
-  RELIT_REQUIRE(map_dir.empty() || fs::is_directory(map_dir), "augment.map_dir ", map_dir, " is not a folder");
+  RELIT_REQUIRE(map_width_px % 2 == 0, "map_width_px must be even, got ", map_width_px);
+  RELIT_REQUIRE(map_dir.empty() || fs::is_directory(map_dir), "map_dir ", map_dir, " is not a folder");
 }
 
-nlohmann::json AugmentOptions::ToJson() const {
-  return {{"enabled", enabled}, {"maps", maps}, {"map_dir", map_dir}, {"map_width_px", map_width_px},
-          {"maps_per_view", maps_per_view}, {"directions", directions}, {"sampling", sampling},
-          {"views", views}, {"resolution_scale", resolution_scale}, {"samples_per_pixel", samples_per_pixel},
-          {"map_samples_per_pixel", map_samples_per_pixel},
-          {"exposure", exposure}, {"steps", steps}, {"checkpoint_every", checkpoint_every},
-          {"log_every", log_every}, {"seed", seed}};
-}
-
-void EvalOptions::Read(OptionsReader& r) {
-  r.Read("methods", &methods);
-  r.ReadRange("samples_per_pixel", &samples_per_pixel, 0, 1 << 16);
-  r.ReadRange("environment_samples_per_pixel", &environment_samples_per_pixel, 0, 1 << 16);
-  r.Read("seed", &seed);
-  r.ReadRange("max_views", &max_views, 0, 100000);
-  r.ReadRange("baseline_resolution_px", &baseline_resolution_px, 1, 4096);
-  r.ReadRange("baseline_ridge", &baseline_ridge, 0.0, 1e9);
-  r.ReadRange("cue_fit_resolution_px", &cue_fit_resolution_px, 1, 8192);
-  OptionsReader fit_reader = r.Child("cue_fit");
-  cue_fit.Read(fit_reader);
-  r.ReadRange("error_map_scale", &error_map_scale, 0.0, 1e6);
-  r.ReadRange("clip_radiance", &clip_radiance, 0.0, 1e9);
-  r.Read("write_images", &write_images);
-  r.Finish();
-  Check();
+const OptionFields<EvalOptions>& EvalOptions::Fields() {
+  using S = EvalOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("methods", &S::methods, KnownMethods(),
+               "what eval scores, in table order (\"Evaluation\"); model_point_light is skipped when no partition "
+               "is augmented")
+          .Add("samples_per_pixel", &S::samples_per_pixel, 0, 1 << 16,
+               "cue paths for the eval views; 0 = render.samples_per_pixel")
+          .Add("environment_samples_per_pixel", &S::environment_samples_per_pixel, 0, 1 << 16,
+               "cue paths under environment lights, whose cues are far noisier at equal samples (the prediction is "
+               "linear in the cues); 0 = eval.samples_per_pixel")
+          .Add("seed", &S::seed, "per-image cue seeds derive from it")
+          .Add("max_views", &S::max_views, 0, 100000, "0 = every eval view, else the first N of each view set")
+          .Add("baseline_resolution_px", &S::baseline_resolution_px, 1, 4096, "the cues-only baseline's texel grid")
+          .Add("baseline_ridge", &S::baseline_ridge, 0.0, 1e9,
+               "the cues-only baseline's pull towards the global fit (pixels' worth)")
+          .Add("cue_fit_resolution_px", &S::cue_fit_resolution_px, 1, 8192, "the cue_fit method's texel grid")
+          .Section("cue_fit", &S::cue_fit)
+          .Add("error_map_scale", &S::error_map_scale, 0.0, 1e6, "error PNGs show |pred - GT| x this; > 0")
+          .Add("clip_radiance", &S::clip_radiance, 0.0, 1e9,
+               "the capture's linear white level: render and truth are clipped per RGB channel to [0, this] before "
+               "scoring; 0 = no clip (\"Evaluation\")")
+          .Add("write_images", &S::write_images, "PNGs of renders, error maps and the truth");
+  return fields;
 }
 
 void EvalOptions::Check() const {
-  RELIT_REQUIRE(!methods.empty(),
-                "eval.methods must list at least one of model, model_point_light, cue_fit, cues_only");
+  RELIT_REQUIRE(!methods.empty(), "methods must list at least one of model, model_point_light, cue_fit, cues_only");
   std::set<std::string> seen;
-  for (const std::string& m : methods) {
-    RELIT_REQUIRE(std::find(KnownMethods().begin(), KnownMethods().end(), m) != KnownMethods().end(),
-                  "eval.methods: unknown method '", m, "' (known: model, model_point_light, cue_fit, cues_only)");
-    RELIT_REQUIRE(seen.insert(m).second, "eval.methods lists '", m, "' twice");
-  }
-  RELIT_REQUIRE(samples_per_pixel >= 0, "eval.samples_per_pixel must be >= 0 (0 = render.samples_per_pixel)");
-  RELIT_REQUIRE(environment_samples_per_pixel >= 0,
-                "eval.environment_samples_per_pixel must be >= 0 (0 = eval.samples_per_pixel)");
-  cue_fit.Check();
-  RELIT_REQUIRE(max_views >= 0, "eval.max_views must be >= 0 (0 = all)");
-  RELIT_REQUIRE(baseline_resolution_px >= 1, "eval.baseline_resolution_px must be >= 1");
-  RELIT_REQUIRE(baseline_ridge >= 0, "eval.baseline_ridge must be >= 0");
-  RELIT_REQUIRE(error_map_scale > 0, "eval.error_map_scale must be > 0");
-  RELIT_REQUIRE(clip_radiance >= 0, "eval.clip_radiance must be >= 0 (the capture's linear white level; 0 = no clip)");
+  for (const std::string& m : methods) RELIT_REQUIRE(seen.insert(m).second, "methods lists '", m, "' twice");
+  RELIT_REQUIRE(error_map_scale > 0, "error_map_scale must be > 0");
 }
 
-nlohmann::json EvalOptions::ToJson() const {
-  return {{"methods", methods},
-          {"samples_per_pixel", samples_per_pixel},
-          {"environment_samples_per_pixel", environment_samples_per_pixel},
-          {"seed", seed},
-          {"max_views", max_views},
-          {"baseline_resolution_px", baseline_resolution_px},
-          {"baseline_ridge", baseline_ridge},
-          {"cue_fit_resolution_px", cue_fit_resolution_px},
-          {"cue_fit", cue_fit.ToJson()},
-          {"error_map_scale", error_map_scale},
-          {"clip_radiance", clip_radiance},
-          {"write_images", write_images}};
-}
-
-void InteropOptions::Read(OptionsReader& r) {
-  r.Read("enabled", &enabled);
-  r.Read("link_images", &link_images);
-  r.ReadRange("bake_views", &bake_views, 1, 1000);
-  r.ReadRange("bake_texture_px", &bake_texture_px, 16, 16384);
-  r.ReadRange("bake_width_px", &bake_width_px, 0, 16384);
-  r.ReadRange("bake_samples_per_pixel", &bake_samples_per_pixel, 0, 1 << 16);
-  r.Read("bake_environment_radiance", &bake_environment_radiance);
-  r.Read("bake_exposure", &bake_exposure);
-  r.Finish();
-  Check();
+const OptionFields<InteropOptions>& InteropOptions::Fields() {
+  using S = InteropOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("enabled", &S::enabled, "write <asset>/interop at all (`--no-interop`)")
+          .Add("link_images", &S::link_images, "hard-link frames where possible (copy otherwise)")
+          .Add("bake_views", &S::bake_views, 1, 1000,
+               "preview bake: renders on the upper hemisphere around the object (`--bake-views`)")
+          .Add("bake_texture_px", &S::bake_texture_px, 16, 16384,
+               "square bake texture, a power of two (`--bake-texture-px`)")
+          .Add("bake_width_px", &S::bake_width_px, 0, 16384,
+               "bake render width; 0 = the training images', else a multiple of 4 (`--bake-width-px`)")
+          .Add("bake_samples_per_pixel", &S::bake_samples_per_pixel, 0, 1 << 16,
+               "cue paths per bake pixel; 0 = as the training cues (`--bake-samples-per-pixel`)")
+          .Add("bake_environment_radiance", &S::bake_environment_radiance,
+               "radiance of the bake's uniform white environment, in the cues' unit; > 0")
+          .Add("bake_exposure", &S::bake_exposure,
+               "linear scale before the texture's sRGB encoding; > 0 (`--bake-exposure`)");
+  return fields;
 }
 
 void InteropOptions::Check() const {
-  RELIT_REQUIRE(bake_views >= 1, "interop.bake_views must be >= 1");
-  RELIT_REQUIRE(bake_texture_px >= 16 && (bake_texture_px & (bake_texture_px - 1)) == 0,
-                "interop.bake_texture_px must be a power of two >= 16, got ", bake_texture_px);
-  RELIT_REQUIRE(bake_width_px >= 0 && bake_width_px % 4 == 0,
-                "interop.bake_width_px must be 0 (training size) or a multiple of 4 (the networks downsample twice)");
-  RELIT_REQUIRE(bake_samples_per_pixel >= 0, "interop.bake_samples_per_pixel must be >= 0 (0 = as the cues)");
-  RELIT_REQUIRE(bake_environment_radiance > 0, "interop.bake_environment_radiance must be > 0");
-  RELIT_REQUIRE(bake_exposure > 0, "interop.bake_exposure must be > 0");
+  RELIT_REQUIRE((bake_texture_px & (bake_texture_px - 1)) == 0, "bake_texture_px must be a power of two >= 16, got ",
+                bake_texture_px);
+  RELIT_REQUIRE(bake_width_px % 4 == 0,
+                "bake_width_px must be 0 (training size) or a multiple of 4 (the networks downsample twice)");
+  RELIT_REQUIRE(bake_environment_radiance > 0, "bake_environment_radiance must be > 0");
+  RELIT_REQUIRE(bake_exposure > 0, "bake_exposure must be > 0");
 }
 
-nlohmann::json InteropOptions::ToJson() const {
-  return {{"enabled", enabled},
-          {"link_images", link_images},
-          {"bake_views", bake_views},
-          {"bake_texture_px", bake_texture_px},
-          {"bake_width_px", bake_width_px},
-          {"bake_samples_per_pixel", bake_samples_per_pixel},
-          {"bake_environment_radiance", bake_environment_radiance},
-          {"bake_exposure", bake_exposure}};
+const OptionFields<RelightOptions>& RelightOptions::Fields() {
+  using S = RelightOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Section("cues", &S::cues)
+          .Section("dataset", &S::dataset)
+          .Section("partitions", &S::partitions)
+          .Section("model", &S::model)
+          .Section("train", &S::train)
+          .Section("augment", &S::augment)
+          .Section("render", &S::render)
+          .Section("export", &S::exports)
+          .Section("eval", &S::eval)
+          .Add("log_level", &S::log_level, LogLevelNames(), "what the stage prints (`--log-level`)")
+          // The model reads what the cues step renders.
+          .OnRead([](OptionsReader&, S* s) { s->model.format = s->cues.Format(); })
+          .OnToJson([](const S& s, nlohmann::json* json) { (*json)["workspace"] = s.workspace; });
+  return fields;
 }
 
-void RelightOptions::Read(OptionsReader& reader) {
-  for (auto [key, read] : std::initializer_list<std::pair<const char*, std::function<void(OptionsReader&)>>>{
-           {"cues", [&](OptionsReader& r) { cues.Read(r); }},
-           {"dataset", [&](OptionsReader& r) { dataset.Read(r); }},
-           {"partitions", [&](OptionsReader& r) { partitions.Read(r); }},
-           {"model", [&](OptionsReader& r) { model.Read(r); }},
-           {"train", [&](OptionsReader& r) { train.Read(r); }},
-           {"augment", [&](OptionsReader& r) { augment.Read(r); }},
-           {"render", [&](OptionsReader& r) { render.Read(r); }},
-           {"export", [&](OptionsReader& r) { exports.Read(r); }},
-           {"eval", [&](OptionsReader& r) { eval.Read(r); }}}) {
-    OptionsReader child = reader.Child(key);
-    read(child);
-  }
-  reader.Read("log_level", &log_level);
-  reader.Finish();
-  model.format = cues.Format();  // the model reads what the cues step renders
-  model.Check();                 // e.g. variant residual with sh cues, refused before any step runs
-}
-
-void RelightOptions::Check() const {
-  RELIT_REQUIRE(!workspace.empty(), "relight: --workspace is required");
-  RELIT_REQUIRE(fs::is_directory(workspace), "relight: workspace ", workspace, " is not a folder");
-  cues.Check();
-  dataset.Check();
-  partitions.Check();
-  model.Check();
-  train.Check();
-  augment.Check();
-  render.Check();
-  exports.Check();
-  eval.Check();
-}
-
-void CheckRelightSection(OptionsReader& reader) {
+RelightOptions ReadRelightSection(OptionsReader& reader) {
   RelightOptions options;
-  options.Read(reader);  // every sub-reader checks its values and calls Finish()
+  ReadOptions(reader, &options);
+  CheckOptions(options);  // e.g. variant residual with sh cues, refused before any step runs
+  return options;
 }
 
-nlohmann::json RelightOptions::ToJson() const {
-  return {{"workspace", workspace},          {"cues", cues.ToJson()},   {"dataset", dataset.ToJson()},
-          {"partitions", partitions.ToJson()}, {"model", model.ToJson()}, {"train", train.ToJson()},
-          {"augment", augment.ToJson()},          {"render", render.ToJson()},        {"export", exports.ToJson()},
-          {"eval", eval.ToJson()},            {"log_level", log_level}};
-}
+void CheckRelightSection(OptionsReader& reader) { ReadRelightSection(reader); }
 
 }  // namespace relit::relight

@@ -1,6 +1,9 @@
 // The `relight:` section of pipeline.yaml (the file `relit-relight --config`
 // reads). Top-level keys: cues, dataset, partitions, model, train, augment,
-// render, export, eval, log_level. Unknown keys are errors. docs/relight.md explains every key.
+// render, export, eval, log_level. Unknown keys are errors. The field tables
+// (relight_options.cc, stage_options.cc, cue_texture_fit.cc, partitions.cc)
+// read, check and write them; docs/relight.md's tables are generated from
+// them (tools/options_doc).
 #pragma once
 
 #include <string>
@@ -28,14 +31,15 @@ struct RelightOptions {
   InteropOptions exports;  // key `export`: the interop exports next to the asset
   std::string log_level = "info";
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  // `workspace` is --workspace, not a key of the file (relit-relight checks
+  // it); reading copies the cues' format into the model's.
+  static const OptionFields<RelightOptions>& Fields();
 };
 
 // Reads a whole `relight:` section into default options and checks it (every
-// key, to the last level), as relit-relight would; for `relit run`'s check
-// of pipeline.yaml. No LibTorch.
+// key, to the last level, the workspace aside), as relit-relight does; for
+// `relit run`'s check of pipeline.yaml and relit-relight --config. No LibTorch.
+RelightOptions ReadRelightSection(OptionsReader& reader);
 void CheckRelightSection(OptionsReader& reader);
 
 // `relit-relight <cues|plan|train|augment|render|export|eval|compare> ...`;

@@ -220,7 +220,7 @@ void WriteRgba(const std::string& path_without_extension, const Image& rgba) {
 }
 
 void RunRenderStage(const std::string& workspace, const RenderStageOptions& options, RunRecord& record) {
-  options.Check();
+  CheckOptions(options, "render");
   const AssetDescription asset = DescribeWorkspace(workspace);
   RelitRenderer renderer(asset);
   const Intrinsics intrinsics =
@@ -343,7 +343,7 @@ int RunRender(int argc, char** argv) {
   SetVerbosity(ParseLogLevel(log_level));
   RenderStageOptions options;
   options.samples_per_pixel = samples;
-  options.Check();
+  CheckOptions(options, "render");
   AssetDescription asset = ReadAsset(asset_dir);
   RunRecord record("relit-render");
   record.SetCommandLine(argc, argv);

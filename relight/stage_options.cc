@@ -4,126 +4,109 @@
 #include <cmath>
 
 #include "core/error.h"
-#include "core/options.h"
 
 namespace relit::relight {
 
-void CueStageOptions::Read(OptionsReader& r) {
-  r.ReadRange("samples_per_pixel", &samples_per_pixel, 1, 1 << 16);
-  r.ReadRange("max_depth", &max_depth, 1, 64);
-  r.Read("seed", &seed);
-  r.Read("flash_intensity", &flash_intensity);
-  r.ReadRange("threads", &threads, 0, 1024);
-  r.Read("input", &input);
-  r.Read("bases", &bases);
-  r.Read("support_plane", &support_plane);
-  r.ReadRange("paper_albedo", &paper_albedo, 0.0, 1.0);
-  r.ReadRange("ink_albedo", &ink_albedo, 0.0, 1.0);
-  r.ReadRange("paper_margin_m", &paper_margin_m, 0.0, 1.0);
-  r.Read("table_albedo", &table_albedo);
-  r.Finish();
-  Check();
+const OptionFields<CueStageOptions>& CueStageOptions::Fields() {
+  using S = CueStageOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("samples_per_pixel", &S::samples_per_pixel, 1, 1 << 16, "paths per pixel, shared by the bases")
+          .Add("max_depth", &S::max_depth, 1, 64, "bounces (1 = direct light only)")
+          .Add("seed", &S::seed, "per-frame seeds derive from it")
+          .Add("flash_intensity", &S::flash_intensity,
+               "W/sr of the cue light (> 0); fixes the unit of rendered lights")
+          .Add("threads", &S::threads, 0, 1024, "0 = all cores")
+          .Add("input", &S::input, {CueFormat::kRadiance, CueFormat::kSh},
+               "the networks' light input: DNL's radiance cues or the spherical-harmonics DNR baseline (\"Baselines\")")
+          .Add("bases", &S::bases, CueFormat::DefaultBasisNames(),
+               "basis materials of the radiance cues, in channel order ([lambert] = the 1-basis ablation); "
+               "texture channels = bases x model.channels_per_basis")
+          .Add("support_plane", &S::support_plane,
+               "add the board and the table (z = 0) to every cue scene as context geometry (\"Support plane\"); "
+               "must be false with input: sh")
+          .Add("paper_albedo", &S::paper_albedo, 0.0, 1.0, "linear albedo of the board's white paper")
+          .Add("ink_albedo", &S::ink_albedo, 0.0, 1.0, "linear albedo of its printed black (<= paper_albedo)")
+          .Add("paper_margin_m", &S::paper_margin_m, 0.0, 1.0, "white paper around the printed squares, metres")
+          .Add("table_albedo", &S::table_albedo,
+               "linear RGB albedo of the table beyond the paper; [] = measured on the phone V frames against the paper")
+          .OnToJson([](const S& s, nlohmann::json* json) {
+            if (s.Format().is_default()) {
+              json->erase("input");
+              json->erase("bases");
+            } else if (s.Format().is_sh()) {
+              json->erase("bases");
+            }
+            if (!s.support_plane) {
+              for (const char* key : {"paper_albedo", "ink_albedo", "paper_margin_m", "table_albedo"}) json->erase(key);
+            }
+          });
+  return fields;
 }
 
 void CueStageOptions::Check() const {
-  RELIT_REQUIRE(samples_per_pixel >= 1, "cues.samples_per_pixel must be >= 1, got ", samples_per_pixel);
-  RELIT_REQUIRE(max_depth >= 1, "cues.max_depth must be >= 1, got ", max_depth);
-  RELIT_REQUIRE(std::isfinite(flash_intensity) && flash_intensity > 0,
-                "cues.flash_intensity must be > 0, got ", flash_intensity);
-  RELIT_REQUIRE(threads >= 0, "cues.threads must be >= 0 (0 = all cores)");
+  RELIT_REQUIRE(std::isfinite(flash_intensity) && flash_intensity > 0, "flash_intensity must be > 0, got ",
+                flash_intensity);
   Format().Check();
-  RELIT_REQUIRE(ink_albedo <= paper_albedo, "cues.ink_albedo (", ink_albedo, ") must not exceed cues.paper_albedo (",
+  RELIT_REQUIRE(ink_albedo <= paper_albedo, "ink_albedo (", ink_albedo, ") must not exceed paper_albedo (",
                 paper_albedo, ")");
   RELIT_REQUIRE((table_albedo.empty() || table_albedo.size() == 3) &&
                     std::all_of(table_albedo.begin(), table_albedo.end(), [](double a) { return a >= 0 && a <= 1; }),
-                "cues.table_albedo must be [] (measured on the frames) or 3 linear RGB values in [0, 1]");
+                "table_albedo must be [] (measured on the frames) or 3 linear RGB values in [0, 1]");
   RELIT_REQUIRE(!support_plane || !Format().is_sh(),
-                "cues.support_plane needs cues.input: radiance (set cues.support_plane: false for input: sh)");
+                "support_plane needs input: radiance (set support_plane: false for input: sh)");
 }
 
-nlohmann::json CueStageOptions::ToJson() const {
-  nlohmann::json j = {{"samples_per_pixel", samples_per_pixel},
-                      {"max_depth", max_depth},
-                      {"seed", seed},
-                      {"flash_intensity", flash_intensity},
-                      {"threads", threads}};
-  if (!Format().is_default()) j.update(Format().ToJson());
-  j["support_plane"] = support_plane;
-  if (support_plane) {
-    j["paper_albedo"] = paper_albedo;
-    j["ink_albedo"] = ink_albedo;
-    j["paper_margin_m"] = paper_margin_m;
-    j["table_albedo"] = table_albedo;
-  }
-  return j;
-}
-
-void DatasetOptions::Read(OptionsReader& r) {
-  r.ReadRange("holdout_every", &holdout_every, 0, 1000000);
-  r.Read("drop_unreliable_lights", &drop_unreliable_lights);
-  r.ReadRange("max_radiance_quantile", &max_radiance_quantile, 0.5, 1.0);
-  r.ReadRange("max_radiance_margin", &max_radiance_margin, 1.0, 100.0);
-  r.Finish();
-  Check();
+const OptionFields<DatasetOptions>& DatasetOptions::Fields() {
+  using S = DatasetOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("holdout_every", &S::holdout_every, 0, 1000000,
+               "every n-th phone V frame (time order) validates and never trains; 0 = none, else >= 2")
+          .Add("drop_unreliable_lights", &S::drop_unreliable_lights,
+               "drop the frames whose light position calib flagged unreliable")
+          .Add("max_radiance_quantile", &S::max_radiance_quantile, 0.5, 1.0,
+               "quantile of the training targets' per-pixel maximum taken as M of the log encoding")
+          .Add("max_radiance_margin", &S::max_radiance_margin, 1.0, 100.0, "M = that quantile times this");
+  return fields;
 }
 
 void DatasetOptions::Check() const {
-  RELIT_REQUIRE(holdout_every == 0 || holdout_every >= 2,
-                "dataset.holdout_every must be 0 (no validation) or >= 2, got ", holdout_every);
-  RELIT_REQUIRE(max_radiance_quantile >= 0.5 && max_radiance_quantile <= 1.0,
-                "dataset.max_radiance_quantile must be in [0.5, 1]");
-  RELIT_REQUIRE(max_radiance_margin >= 1.0, "dataset.max_radiance_margin must be >= 1");
+  RELIT_REQUIRE(holdout_every == 0 || holdout_every >= 2, "holdout_every must be 0 (no validation) or >= 2, got ",
+                holdout_every);
 }
 
-nlohmann::json DatasetOptions::ToJson() const {
-  return {{"holdout_every", holdout_every},
-          {"drop_unreliable_lights", drop_unreliable_lights},
-          {"max_radiance_quantile", max_radiance_quantile},
-          {"max_radiance_margin", max_radiance_margin}};
-}
-
-void RenderStageOptions::Read(OptionsReader& r) {
-  r.ReadRange("frames", &frames, 1, 100000);
-  r.ReadRange("width_px", &width_px, 0, 16384);
-  r.ReadRange("height_px", &height_px, 0, 16384);
-  r.ReadRange("elevation_deg", &elevation_deg, -89.0, 89.0);
-  r.ReadRange("distance_scale", &distance_scale, 0.0, 1000.0);
-  r.ReadRange("fps", &fps, 0.1, 240.0);
-  r.Read("point_light_offset_m", &point_light_offset_m);
-  r.Read("point_light_intensity", &point_light_intensity);
-  r.Read("environment_map", &environment_map);
-  r.Read("environment_scale", &environment_scale);
-  r.ReadRange("samples_per_pixel", &samples_per_pixel, 1, 1 << 16);
-  r.Read("write_mp4", &write_mp4);
-  r.Finish();
-  Check();
+const OptionFields<RenderStageOptions>& RenderStageOptions::Fields() {
+  using S = RenderStageOptions;
+  static const auto fields =
+      OptionFields<S>()
+          .Add("frames", &S::frames, 1, 100000, "turntable frames (one revolution)")
+          .Add("width_px", &S::width_px, 0, 16384, "0 = the training images' size; a multiple of 4")
+          .Add("height_px", &S::height_px, 0, 16384, "0 = the training images' size; a multiple of 4")
+          .Add("elevation_deg", &S::elevation_deg, -89.0, 89.0, "turntable camera elevation above the board")
+          .Add("distance_scale", &S::distance_scale, 0.0, 1000.0,
+               "camera distance / object radius; 0 = the capture's mean distance")
+          .Add("fps", &S::fps, 0.1, 240.0, "MP4 frame rate")
+          .Add("point_light_offset_m", &S::point_light_offset_m,
+               "the point light relative to the camera, in its frame (x right, y down, z forward), metres")
+          .Add("point_light_intensity", &S::point_light_intensity,
+               "flash units (1 = the capture's flash as the cues see it); > 0")
+          .Add("environment_map", &S::environment_map,
+               "EXR/HDR file (equirectangular, +Z up), procedural:sky or procedural:studio; \"\" = procedural:sky")
+          .Add("environment_scale", &S::environment_scale, "the map's radiance scale; > 0")
+          .Add("samples_per_pixel", &S::samples_per_pixel, 1, 1 << 16, "cue paths per pixel for new views")
+          .Add("write_mp4", &S::write_mp4, "the turntables as MP4 too");
+  return fields;
 }
 
 void RenderStageOptions::Check() const {
-  RELIT_REQUIRE(frames >= 1, "render.frames must be >= 1");
   RELIT_REQUIRE((width_px == 0) == (height_px == 0),
-                "render.width_px and render.height_px must both be 0 (training size) or both be set");
+                "width_px and height_px must both be 0 (training size) or both be set");
   RELIT_REQUIRE(width_px % 4 == 0 && height_px % 4 == 0,
-                "render.width_px and height_px must be multiples of 4 (the networks downsample twice)");
-  RELIT_REQUIRE(point_light_offset_m.size() == 3, "render.point_light_offset_m must have 3 numbers (x, y, z)");
-  RELIT_REQUIRE(point_light_intensity > 0, "render.point_light_intensity must be > 0");
-  RELIT_REQUIRE(environment_scale > 0, "render.environment_scale must be > 0");
-  RELIT_REQUIRE(samples_per_pixel >= 1, "render.samples_per_pixel must be >= 1");
-}
-
-nlohmann::json RenderStageOptions::ToJson() const {
-  return {{"frames", frames},
-          {"width_px", width_px},
-          {"height_px", height_px},
-          {"elevation_deg", elevation_deg},
-          {"distance_scale", distance_scale},
-          {"fps", fps},
-          {"point_light_offset_m", point_light_offset_m},
-          {"point_light_intensity", point_light_intensity},
-          {"environment_map", environment_map},
-          {"environment_scale", environment_scale},
-          {"samples_per_pixel", samples_per_pixel},
-          {"write_mp4", write_mp4}};
+                "width_px and height_px must be multiples of 4 (the networks downsample twice)");
+  RELIT_REQUIRE(point_light_offset_m.size() == 3, "point_light_offset_m must have 3 numbers (x, y, z)");
+  RELIT_REQUIRE(point_light_intensity > 0, "point_light_intensity must be > 0");
+  RELIT_REQUIRE(environment_scale > 0, "environment_scale must be > 0");
 }
 
 }  // namespace relit::relight

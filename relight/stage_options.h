@@ -1,21 +1,17 @@
 // Options of the relight stage's steps that need no LibTorch: radiance cues,
 // the frame split (dataset), and the views `render` produces. The network
 // and optimiser options (ModelOptions, TrainOptions) live in model.h; the
-// whole `relight:` section is assembled in relight_options.h.
-// docs/relight.md explains every key.
+// whole `relight:` section is assembled in relight_options.h. Defaults live
+// here, keys, ranges and docs in the field tables (stage_options.cc), from
+// which docs/relight.md's tables are generated (tools/options_doc).
 #pragma once
 
 #include <cstdint>
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
+#include "core/option_fields.h"
 #include "relight/cue_frames.h"
-
-namespace relit {
-class OptionsReader;
-}
 
 namespace relit::relight {
 
@@ -45,10 +41,11 @@ struct CueStageOptions {
   std::vector<double> table_albedo;
 
   CueFormat Format() const { return {input, bases}; }
-  void Read(OptionsReader& reader);
-  void Check() const;
-  // `input` and `bases` only when not the defaults (older records stay equal).
-  nlohmann::json ToJson() const;
+  // The JSON (OptionsToJson) holds `input` and `bases` only when not the
+  // defaults, the board's albedos only with the support plane (older
+  // records stay equal).
+  static const OptionFields<CueStageOptions>& Fields();
+  void Check() const;  // across fields; ranges and choices: CheckOptions
 };
 
 struct DatasetOptions {
@@ -63,9 +60,8 @@ struct DatasetOptions {
   double max_radiance_quantile = 0.999;
   double max_radiance_margin = 1.5;
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<DatasetOptions>& Fields();
+  void Check() const;  // across fields; ranges: CheckOptions
 };
 
 // The views `relit-relight render` produces without explicit cameras:
@@ -91,9 +87,8 @@ struct RenderStageOptions {
   int samples_per_pixel = 16;         // cue rendering for new views
   bool write_mp4 = true;
 
-  void Read(OptionsReader& reader);
-  void Check() const;
-  nlohmann::json ToJson() const;
+  static const OptionFields<RenderStageOptions>& Fields();
+  void Check() const;  // across fields; ranges: CheckOptions
 };
 
 }  // namespace relit::relight

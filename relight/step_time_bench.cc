@@ -21,6 +21,7 @@
 #include "core/run_record.h"
 #include "relight/model.h"
 #include "relight/test_scene.h"
+#include "relight/test_scene.h"
 
 namespace relit::relight {
 namespace {
@@ -28,17 +29,6 @@ namespace {
 struct Config {
   int ngf, blocks, crop;
 };
-
-Batch RandomBatch(int size) {
-  Batch b;
-  b.uv = torch::rand({1, size, size, 2});
-  b.uv_derivatives = torch::full({1, size, size, 4}, 1.0 / 512);
-  b.coverage = torch::ones({1, 1, size, size});
-  b.cues = torch::rand({1, 15, size, size}) * 2.0;
-  b.target_rgb = torch::rand({1, 3, size, size});
-  b.target_matte = (torch::rand({1, 1, size, size}) > 0.3).to(torch::kFloat);
-  return b;
-}
 
 // Log-space L1 inside the matte on held-out frames after training.
 double HeldOutError(const ModelOptions& base, int threads, int steps) {
@@ -104,7 +94,7 @@ int Run(int argc, char** argv) {
     Trainer trainer(model_options, train_options);
     int64_t params = 0;
     for (const auto& p : trainer.model()->parameters()) params += p.numel();
-    const Batch batch = RandomBatch(c.crop);
+    const Batch batch = testing::RandomBatch(c.crop);
     trainer.Step(batch);  // warm-up (allocations, kernel selection)
     const auto start = std::chrono::steady_clock::now();
     const std::clock_t cpu_start = std::clock();

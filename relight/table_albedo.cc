@@ -7,18 +7,13 @@
 #include <tbb/parallel_for.h>
 
 #include "core/image.h"
+#include "core/median.h"
 
 namespace relit::relight {
 
 namespace {
 
 using render::Vec3f;
-
-double Median(std::vector<double>* values) {
-  const auto middle = values->begin() + static_cast<std::ptrdiff_t>(values->size() / 2);
-  std::nth_element(values->begin(), middle, values->end());
-  return *middle;
-}
 
 enum class PlanePart { kNone, kPaper, kTable };
 
@@ -101,7 +96,7 @@ TableAlbedoEstimate EstimateTableAlbedo(const render::Scene& scene, const Suppor
     estimate.table_pixels += static_cast<int64_t>(s.table[0].size());
     for (int c = 0; c < 3; ++c) {
       // The paper gives this frame's flash scale (and exposure) per channel.
-      const double scale = Median(&s.paper[c]) / plane.paper_albedo;
+      const double scale = Median(std::move(s.paper[c])) / plane.paper_albedo;
       if (!(scale > 0)) continue;
       for (double v : s.table[c]) albedo[c].push_back(v / scale);
     }
@@ -113,7 +108,7 @@ TableAlbedoEstimate EstimateTableAlbedo(const render::Scene& scene, const Suppor
                       std::to_string(options.min_table_pixels) + ")";
     return estimate;
   }
-  for (int c = 0; c < 3; ++c) estimate.table_albedo[c] = std::clamp(Median(&albedo[c]), 0.0, 1.0);
+  for (int c = 0; c < 3; ++c) estimate.table_albedo[c] = std::clamp(Median(std::move(albedo[c])), 0.0, 1.0);
   estimate.found = true;
   return estimate;
 }

@@ -109,6 +109,19 @@ inline Batch SyntheticShFrame(const torch::Tensor& material, int size, int frame
   return batch;
 }
 
+// A default-format batch of random data, size x size pixels: for timing and
+// memory, which depend on the sizes only.
+inline Batch RandomBatch(int size) {
+  Batch b;
+  b.uv = torch::rand({1, size, size, 2});
+  b.uv_derivatives = torch::full({1, size, size, 4}, 1.0 / 512);
+  b.coverage = torch::ones({1, 1, size, size});
+  b.cues = torch::rand({1, kCueChannelCount, size, size}) * 2.0;
+  b.target_rgb = torch::rand({1, 3, size, size});
+  b.target_matte = (torch::rand({1, 1, size, size}) > 0.3).to(torch::kFloat);
+  return b;
+}
+
 // A small model for tests: 2 channels per basis, 32^2 texture, narrow nets.
 inline ModelOptions TinyModelOptions() {
   ModelOptions options;

@@ -40,7 +40,7 @@ std::string PartitionDirName(int partition) {
 
 TrainStageResult RunTrainStage(const std::string& workspace, int partition, const ModelOptions& model_options_in,
                                const TrainStageOptions& options, bool restart, RunRecord& record) {
-  options.Check();
+  CheckOptions(options, "train");
   const fs::path root(workspace);
   const std::string plan_path = (root / "relight" / "plan" / "plan.json").string();
   const Plan plan = ReadPlan(plan_path);
@@ -73,8 +73,8 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
   ModelOptions model_options = model_options_in;
   model_options.max_radiance = plan.max_radiance;
   // Everything that changes the trajectory; `steps` and the cadences do not.
-  const json fingerprint = {{"model", model_options.ToJson()},
-                            {"optimizer", options.optimizer.ToJson()},
+  const json fingerprint = {{"model", OptionsToJson(model_options)},
+                            {"optimizer", OptionsToJson(options.optimizer)},
                             {"plan", HashFile(plan_path)}};
   const fs::path fingerprint_path = dir / "fingerprint.json";
   std::unique_ptr<Trainer> trainer;

@@ -166,8 +166,8 @@ TEST(CheckpointTest, RecordsTheInputFormatAndRefusesAnother) {
   // A 5-basis batch into the 1-basis model is refused, not silently misread.
   EXPECT_THROW(LoadModel(dir)->Render(testing::SyntheticFrame(material, 16, 0, 6)), Error);
   // Default models write no format keys (older checkpoints read as the default).
-  EXPECT_FALSE(testing::TinyModelOptions().ToJson().contains("input"));
-  EXPECT_TRUE(model_options.ToJson().contains("bases"));
+  EXPECT_FALSE(OptionsToJson(testing::TinyModelOptions()).contains("input"));
+  EXPECT_TRUE(OptionsToJson(model_options).contains("bases"));
 }
 
 TEST(CheckpointTest, ResumingReproducesTheUninterruptedRun) {
@@ -199,8 +199,8 @@ TEST(CheckpointTest, ResumingReproducesTheUninterruptedRun) {
 
   const CheckpointInfo info = ReadCheckpointInfo(dir);
   EXPECT_EQ(info.step, k);
-  EXPECT_EQ(info.model_options.ToJson(), model_options.ToJson());
-  EXPECT_EQ(info.train_options.ToJson(), train_options.ToJson());
+  EXPECT_EQ(OptionsToJson(info.model_options), OptionsToJson(model_options));
+  EXPECT_EQ(OptionsToJson(info.train_options), OptionsToJson(train_options));
 
   std::unique_ptr<Trainer> second_half = LoadTrainer(dir);
   EXPECT_EQ(second_half->step(), k);
@@ -430,16 +430,19 @@ TEST(CheckpointTest, OptionsRoundTripThroughYaml) {
   model_options.upsampling = "resize_conv";
   model_options.max_radiance = 12.5;
   model_options.device = "auto";
-  OptionsReader reader = OptionsReader::FromString(model_options.ToJson().dump());
+  OptionsReader reader = OptionsReader::FromString(OptionsToJson(model_options).dump());
   ModelOptions read;
-  read.Read(reader);
-  EXPECT_EQ(read.ToJson(), model_options.ToJson());
+  ReadOptions(reader, &read);
+  EXPECT_EQ(OptionsToJson(read), OptionsToJson(model_options));
   OptionsReader typo = OptionsReader::FromString("ngf: 16\nn_block: 3\n");
-  EXPECT_THROW(ModelOptions().Read(typo), Error);
+  ModelOptions model_read;
+  EXPECT_THROW(ReadOptions(typo, &model_read), Error);
   OptionsReader bad_crop = OptionsReader::FromString("crop_px: 30\n");
-  EXPECT_THROW(TrainOptions().Read(bad_crop), Error);
+  TrainOptions train_read;
+  ReadOptions(bad_crop, &train_read);
+  EXPECT_THROW(CheckOptions(train_read), Error);
   OptionsReader bad_variant = OptionsReader::FromString("variant: resnet\n");
-  EXPECT_THROW(ModelOptions().Read(bad_variant), Error);
+  EXPECT_THROW(ReadOptions(bad_variant, &model_read), Error);
   EXPECT_THROW(ResolveDevice("tpu"), Error);
   if (!torch::cuda::is_available()) {
     EXPECT_THROW(ResolveDevice("cuda"), Error);

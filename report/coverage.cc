@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 
 #include "core/error.h"
+#include "core/median.h"
 
 namespace relit::report {
 
@@ -35,17 +36,12 @@ const OptionFields<CoverageThresholds>& CoverageThresholds::Fields() {
   return fields;
 }
 
-nlohmann::json CoverageStats::ToJson() const {
-  return {{"frames", frames},
-          {"view_spread_deg", view_spread_deg},
-          {"light_spread_deg", light_spread_deg},
-          {"relative_light_spread_deg", relative_light_spread_deg},
-          {"median_view_light_angle_deg", median_view_light_angle_deg},
-          {"view_cells", view_cells},
-          {"light_cells", light_cells},
-          {"view_light_cell_pairs", view_light_cell_pairs},
-          {"warnings", warnings}};
-}
+// The JSON keys are the members' names.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(CoverageStats, frames, view_spread_deg, light_spread_deg,
+                                   relative_light_spread_deg, median_view_light_angle_deg, view_cells, light_cells,
+                                   view_light_cell_pairs, warnings)
+
+nlohmann::json CoverageStats::ToJson() const { return *this; }
 
 double AngularSpreadDeg(const std::vector<Eigen::Vector3d>& directions) {
   if (directions.empty()) return 0;
@@ -108,8 +104,7 @@ CoverageStats ComputeCoverage(const std::vector<Eigen::Vector3d>& view_direction
     pairs.insert({vc, lc});
   }
   stats.relative_light_spread_deg = AngularSpreadDeg(relative);
-  std::nth_element(angles.begin(), angles.begin() + angles.size() / 2, angles.end());
-  stats.median_view_light_angle_deg = angles[angles.size() / 2];
+  stats.median_view_light_angle_deg = Median(std::move(angles));
   stats.view_cells = static_cast<int>(view_cells.size());
   stats.light_cells = static_cast<int>(light_cells.size());
   stats.view_light_cell_pairs = static_cast<int>(pairs.size());

@@ -135,6 +135,11 @@ std::string NotRunYet(const std::string& missing, const std::string& how_to_run)
          "</div>\n";
 }
 
+Section NotRunSection(Section section, const std::string& missing, const std::string& how_to_run) {
+  section.html = NotRunYet(missing, how_to_run);
+  return section;
+}
+
 std::string ReadError(const std::string& message) {
   return "<div class=\"error\">Could not read this stage's files: " + Html(message) + "</div>\n";
 }

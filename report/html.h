@@ -46,6 +46,9 @@ struct Section {
   std::string html;   // body
 };
 
+// `section` holding only the NotRunYet note (its stage has not run).
+Section NotRunSection(Section section, const std::string& missing, const std::string& how_to_run);
+
 // The whole page: title, table of contents, `summary_html` at the top, the
 // sections, and the image check script (marks broken images, writes the
 // result into <body data-image-check="...">, logs nothing when all load).

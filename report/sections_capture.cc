@@ -89,8 +89,7 @@ Section CaptureSection(ReportContext& context) {
   Section section{"capture", "Capture", ""};
   const std::string file = "capture/capture.json";
   if (!context.Has(file)) {
-    section.html = NotRunYet("W/" + file, "Run relit-capture --view V.mp4 --light L.mp4 --out W/capture.");
-    return section;
+    return NotRunSection(section, "W/" + file, "Run relit-capture --view V.mp4 --light L.mp4 --out W/capture.");
   }
   const CaptureFile capture = ReadCaptureFile(context.Input(file).string());
   std::string& html = section.html;
@@ -142,10 +141,8 @@ Section CaptureSection(ReportContext& context) {
   for (auto& [reason, s] : by_reason) {
     if (reason != "kept") series.push_back(s);
   }
-  PlotOptions plot;
-  plot.title = "Phone V frames: sharpness over time";
-  plot.x_label = "time on the common clock (s)";
-  plot.y_label = "sharpness (variance of Laplacian)";
+  PlotOptions plot{"Phone V frames: sharpness over time", "time on the common clock (s)",
+                   "sharpness (variance of Laplacian)"};
   plot.log_y = true;
   html += FigureRow({Figure(context.WriteAsset("capture_frames.svg", PlotSvg(plot, series)),
                             "Every decoded phone V frame; colour = kept or the reason it was rejected.")});
@@ -156,8 +153,7 @@ Section CaptureSection(ReportContext& context) {
 Section CalibSection(ReportContext& context) {
   Section section{"calib", "Calibration", ""};
   if (!context.Has("calib/cameras.json")) {
-    section.html = NotRunYet("W/calib/cameras.json", "Run relit-calib --workspace W.");
-    return section;
+    return NotRunSection(section, "W/calib/cameras.json", "Run relit-calib --workspace W.");
   }
   std::string& html = section.html;
   const CamerasFile cameras = ReadCamerasFile(context.Input("calib/cameras.json").string());
@@ -241,22 +237,12 @@ Section CalibSection(ReportContext& context) {
       flash_z.y.push_back(l.position_m.z());
     }
   }
-  PlotOptions top;
-  top.title = "Trajectories seen from above (board in beige)";
-  top.x_label = "x (m)";
-  top.y_label = "y (m)";
-  top.width_px = 460;
-  top.height_px = 420;
+  PlotOptions top{"Trajectories seen from above (board in beige)", "x (m)", "y (m)", 460, 420};
   top.equal_aspect = true;
   const double hx = 0.5 * cameras.board.squares_x * cameras.board.square_length_m;
   const double hy = 0.5 * cameras.board.squares_y * cameras.board.square_length_m;
   top.outlines.push_back({{-hx, -hy}, {hx, -hy}, {hx, hy}, {-hx, hy}});
-  PlotOptions height;
-  height.title = "Height above the board over time";
-  height.x_label = "time on the common clock (s)";
-  height.y_label = "z (m)";
-  height.width_px = 560;
-  height.height_px = 420;
+  const PlotOptions height{"Height above the board over time", "time on the common clock (s)", "z (m)", 560, 420};
   html += "<h3>Camera and light trajectories</h3>\n";
   std::vector<PlotSeries> top_series = {view_top, light_top, flash_top};
   if (!geometry_top.x.empty()) top_series.push_back(geometry_top);

@@ -58,8 +58,7 @@ Layout ReadLayout(ReportContext& context, const std::vector<Eigen::Vector3d>& vi
 Section CoverageSection(ReportContext& context) {
   Section section{"coverage", "View and light coverage", ""};
   if (!context.Has("calib/cameras.json") || !context.Has("calib/lights.json")) {
-    section.html = NotRunYet("W/calib/cameras.json or lights.json", "Run relit-calib --workspace W.");
-    return section;
+    return NotRunSection(section, "W/calib/cameras.json or lights.json", "Run relit-calib --workspace W.");
   }
   std::string& html = section.html;
   const CamerasFile cameras = ReadCamerasFile(context.Input("calib/cameras.json").string());

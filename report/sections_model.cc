@@ -126,8 +126,7 @@ void ReadObjectCentre(ReportContext& context) {
 Section ReconstructSection(ReportContext& context) {
   Section section{"reconstruct", "Proxy mesh, UV atlas, trimaps and mattes", ""};
   if (!context.Has("reconstruct/proxy.json")) {
-    section.html = NotRunYet("W/reconstruct/proxy.json", "Run relit-reconstruct --workspace W --mesh scan.obj.");
-    return section;
+    return NotRunSection(section, "W/reconstruct/proxy.json", "Run relit-reconstruct --workspace W --mesh scan.obj.");
   }
   std::string& html = section.html;
   const ProxyFile proxy = ReadProxyFile(context.Input("reconstruct/proxy.json").string());
@@ -190,8 +189,8 @@ Section TrainingSection(ReportContext& context) {
   Section section{"training", "Training and validation per partition", ""};
   const fs::path dir = context.Input("relight/partitions");
   if (!fs::is_directory(dir)) {
-    section.html = NotRunYet("W/relight/partitions", "Run relit-relight plan, then relit-relight train --partition K.");
-    return section;
+    return NotRunSection(section, "W/relight/partitions",
+                         "Run relit-relight plan, then relit-relight train --partition K.");
   }
   std::string& html = section.html;
   std::vector<fs::path> partitions;
@@ -225,13 +224,8 @@ Section TrainingSection(ReportContext& context) {
     }
     rows.push_back({k, status, log.step.empty() ? "0" : JsonScalarText(json(log.step.back())),
                     Fixed(LastFinite(log.loss), 4), Fixed(best_psnr, 2), Fixed(LastFinite(log.val_psnr_db), 2)});
-    PlotOptions loss;
-    loss.title = "partition " + k + ": training loss";
-    loss.x_label = "step";
-    loss.y_label = "loss";
+    PlotOptions loss{"partition " + k + ": training loss", "step", "loss", 380, 240};
     loss.log_y = true;
-    loss.width_px = 380;
-    loss.height_px = 240;
     PlotOptions psnr = loss;
     psnr.title = "partition " + k + ": validation PSNR";
     psnr.y_label = "PSNR (dB)";
@@ -254,10 +248,7 @@ Section TrainingSection(ReportContext& context) {
   html += Table({"partition", "status", "steps", "last loss", "best validation PSNR (dB)", "last validation PSNR (dB)"},
                 rows);
   if (all_psnr.size() > 1) {
-    PlotOptions overview;
-    overview.title = "Validation PSNR of every partition";
-    overview.x_label = "step";
-    overview.y_label = "PSNR (dB)";
+    const PlotOptions overview{"Validation PSNR of every partition", "step", "PSNR (dB)"};
     html += FigureRow({Figure(context.WriteAsset("training_psnr_all.svg", PlotSvg(overview, all_psnr)),
                               "all partitions")});
   }
@@ -269,8 +260,7 @@ Section RenderSection(ReportContext& context) {
   Section section{"render", "Relit turntables", ""};
   const fs::path dir = context.Input("relight/render");
   if (!fs::is_directory(dir)) {
-    section.html = NotRunYet("W/relight/render", "Run relit-relight render after training.");
-    return section;
+    return NotRunSection(section, "W/relight/render", "Run relit-relight render after training.");
   }
   std::string& html = section.html;
   const std::vector<std::pair<std::string, std::string>> turntables = {
@@ -401,10 +391,9 @@ Section EvalSection(ReportContext& context) {
   Section section{"eval", "Evaluation against ground truth", ""};
   const fs::path dir = context.Input("relight/eval");
   if (!fs::exists(dir / "eval.json") && !fs::exists(dir / "eval.md")) {
-    section.html = NotRunYet("W/relight/eval/eval.json",
-                             "Run relit-relight eval --truth CAPTURE/truth.json on a capture with ground truth "
-                             "(relit-synth).");
-    return section;
+    return NotRunSection(section, "W/relight/eval/eval.json",
+                         "Run relit-relight eval --truth CAPTURE/truth.json on a capture with ground truth "
+                         "(relit-synth).");
   }
   std::string& html = section.html;
   if (fs::exists(dir / "eval.json")) {

@@ -10,6 +10,7 @@
 #include "core/error.h"
 #include "pipeline/config.h"
 #include "reconstruct/reconstruct_options.h"
+#include "relight/relight_options.h"
 #include "report/report_options.h"
 #include "tools/synth/synth_options.h"
 
@@ -35,6 +36,7 @@ std::map<std::string, std::string> GeneratedTables() {
           {"calib", OptionsMarkdown<calib::CalibOptions>()},
           {"reconstruct", OptionsMarkdown<reconstruct::ReconstructOptions>()},
           {"report", OptionsMarkdown<report::ReportOptions>()},
+          {"relight", OptionsMarkdown<relight::RelightOptions>()},
           {"pipeline.inputs", OptionsMarkdown<pipeline::PipelineInputs>()},
           {"pipeline.board", OptionsMarkdown<BoardSpec>()},
           {"pipeline.run", OptionsMarkdown<pipeline::RunSettings>()},
@@ -44,7 +46,7 @@ std::map<std::string, std::string> GeneratedTables() {
 }
 
 std::vector<std::string> DocsWithTables() {
-  return {"capture.md", "calib.md", "reconstruct.md", "report.md", "pipeline.md", "synthetic.md"};
+  return {"capture.md", "calib.md", "reconstruct.md", "relight.md", "report.md", "pipeline.md", "synthetic.md"};
 }
 
 std::string ReplaceGeneratedBlocks(const std::string& text, const std::map<std::string, std::string>& tables,

@@ -12,7 +12,7 @@
 
 namespace relit::options_doc {
 
-// Table name -> Markdown text (capture, calib, reconstruct, report,
+// Table name -> Markdown text (capture, calib, reconstruct, relight, report,
 // pipeline.inputs, pipeline.board, pipeline.run, pipeline.slurm).
 std::map<std::string, std::string> GeneratedTables();
 

@@ -18,6 +18,7 @@
 
 #include "core/board.h"
 #include "core/json_file.h"
+#include "core/median.h"
 #include "core/render/mesh.h"
 #include "tools/synth/audio.h"
 #include "tools/synth/ffmpeg_io.h"
@@ -28,12 +29,6 @@ namespace relit::synth {
 namespace {
 
 namespace fs = std::filesystem;
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 1e9;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 class SynthRenderTest : public ::testing::Test {
  protected:
@@ -220,6 +215,7 @@ void CheckBoardCorners(const std::string& video_name, const fs::path& mp4, const
       mean_residual += residual;
     }
   }
+  ASSERT_FALSE(errors.empty()) << video_name << ": no ChArUco corner found";
   const double median = Median(errors);
   mean_residual /= std::max<size_t>(1, errors.size());
   std::printf("%s: ChArUco corners in %d/%zu frames, %zu corners, median error %.3f px, "
