@@ -423,14 +423,9 @@ AugmentStageResult RunAugmentStage(const std::string& workspace, int partition, 
       progress.Advance();
     }
     progress.Finish();
-    const int validation_count =
-        std::min<int>(train.max_validation_frames, static_cast<int>(part.validation_frames.size()));
-    for (int i = 0; i < validation_count; ++i) {
-      const size_t pick = part.validation_frames.size() * (2 * i + 1) / (2 * validation_count);
-      validation.push_back(LoadPlanFrame(root.string(), plan.frames[part.validation_frames[pick]], format));
-    }
     ThresholdMattes(captured, train.optimizer.matte_threshold);
-    ThresholdMattes(validation, train.optimizer.matte_threshold);
+    validation = LoadValidationFrames(root.string(), plan, part, train.max_validation_frames, format,
+                                      train.optimizer.matte_threshold);
   }
   if (!validation.empty()) {
     DnlModel model = LoadModel(source / "checkpoint");

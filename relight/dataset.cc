@@ -1,5 +1,6 @@
 #include "relight/dataset.h"
 
+#include <algorithm>
 #include <filesystem>
 
 #include "core/error.h"
@@ -47,6 +48,18 @@ Batch LoadPlanFrame(const std::string& workspace, const PlanFrame& frame, const 
   Batch batch = CueFrameToBatch(cues, format);
   AttachTargets(batch, target, matte);
   return batch;
+}
+
+std::vector<Batch> LoadValidationFrames(const std::string& workspace, const Plan& plan, const PlanPartition& part,
+                                        int max_frames, const CueFormat& format, double matte_threshold) {
+  const int count = std::min<int>(max_frames, static_cast<int>(part.validation_frames.size()));
+  std::vector<Batch> frames;
+  for (int i = 0; i < count; ++i) {
+    const size_t pick = part.validation_frames.size() * (2 * i + 1) / (2 * count);  // evenly spread
+    frames.push_back(LoadPlanFrame(workspace, plan.frames[part.validation_frames[pick]], format));
+  }
+  ThresholdMattes(frames, matte_threshold);
+  return frames;
 }
 
 void ThresholdMattes(std::vector<Batch>& frames, double threshold) {

@@ -19,14 +19,20 @@ Batch CueFrameToBatch(const Image& cue_frame, const CueFormat& format = {});
 // Sets the batch's targets: channels 0-2 of `rgb` (linear radiance) and
 // channel `matte_channel` of `matte` (clamped to [0, 1]). Sizes must match
 // the batch (the caller checks and names the files).
+void AttachTargets(Batch& batch, const Image& rgb, const Image& matte, int matte_channel = 0);
+
 // Thresholds the frames' target mattes at `threshold` (> 0; 0 = unchanged).
 void ThresholdMattes(std::vector<Batch>& frames, double threshold);
-
-void AttachTargets(Batch& batch, const Image& rgb, const Image& matte, int matte_channel = 0);
 
 // A Batch with targets from plan frame `frame` of `workspace`. Throws
 // relit::Error naming the file when sizes disagree.
 Batch LoadPlanFrame(const std::string& workspace, const PlanFrame& frame, const CueFormat& format = {});
+
+// Up to `max_frames` of the partition's validation frames, spread evenly
+// over them, with their mattes thresholded at `matte_threshold`
+// (ThresholdMattes): what training and augmentation validate on.
+std::vector<Batch> LoadValidationFrames(const std::string& workspace, const Plan& plan, const PlanPartition& part,
+                                        int max_frames, const CueFormat& format, double matte_threshold);
 
 // The model's premultiplied RGBA for a whole frame of any size: the batch is
 // zero-padded to a multiple of 4 (the networks downsample twice) and the

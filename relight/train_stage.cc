@@ -110,13 +110,9 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
       progress.Advance();
     }
     progress.Finish();
-    const int count = std::min<int>(options.max_validation_frames, static_cast<int>(part.validation_frames.size()));
-    for (int i = 0; i < count; ++i) {
-      const size_t pick = part.validation_frames.size() * (2 * i + 1) / (2 * count);  // evenly spread
-      validation.push_back(LoadPlanFrame(workspace, plan.frames[part.validation_frames[pick]], model_options.format));
-    }
     ThresholdMattes(frames, options.optimizer.matte_threshold);
-    ThresholdMattes(validation, options.optimizer.matte_threshold);
+    validation = LoadValidationFrames(workspace, plan, part, options.max_validation_frames, model_options.format,
+                                      options.optimizer.matte_threshold);
   }
 
   // Clipped video pixels: one-sided in the warm start and in the loss.
