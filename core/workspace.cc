@@ -146,6 +146,7 @@ ProxyFile ReadProxyFile(const std::string& path) {
   file.atlas_resolution_px = JsonInt(j, "atlas_resolution_px", path);
   file.object_centre_m = Vector3FromJson(JsonField(j, "object_centre_m", path), path + ": object_centre_m");
   file.object_radius_m = JsonNumber(j, "object_radius_m", path);
+  if (j.contains("normal_map")) file.normal_map = JsonString(j, "normal_map", path);
   const json& mattes = JsonField(j, "mattes", path);
   RELIT_REQUIRE(mattes.is_array(), path, ": 'mattes' must be a list");
   for (size_t i = 0; i < mattes.size(); ++i) {
@@ -161,12 +162,13 @@ void WriteProxyFile(const std::string& path, const ProxyFile& file) {
   for (const ViewMatte& m : file.mattes) {
     mattes.push_back({{"view_frame", m.view_frame}, {"matte", m.matte}, {"trimap", m.trimap}});
   }
-  WriteJsonFile(path, ProxyFile::kKind, ProxyFile::kVersion,
-                {{"mesh", file.mesh},
-                 {"atlas_resolution_px", file.atlas_resolution_px},
-                 {"object_centre_m", ToJson(file.object_centre_m)},
-                 {"object_radius_m", file.object_radius_m},
-                 {"mattes", mattes}});
+  json j = {{"mesh", file.mesh},
+            {"atlas_resolution_px", file.atlas_resolution_px},
+            {"object_centre_m", ToJson(file.object_centre_m)},
+            {"object_radius_m", file.object_radius_m},
+            {"mattes", mattes}};
+  if (!file.normal_map.empty()) j["normal_map"] = file.normal_map;
+  WriteJsonFile(path, ProxyFile::kKind, ProxyFile::kVersion, j);
 }
 
 }  // namespace relit

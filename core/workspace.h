@@ -81,6 +81,9 @@ struct ProxyFile {
   int atlas_resolution_px = 512;    // texture size the UV atlas was packed for
   Eigen::Vector3d object_centre_m = Eigen::Vector3d::Zero();  // partitions are centred here
   double object_radius_m = 0;       // bounding sphere radius
+  // Object-space normal map of the mesh (float RGB EXR read at the UVs; zero
+  // texels keep the mesh normal), "" = none. Optional key: older files have none.
+  std::string normal_map;
   std::vector<ViewMatte> mattes;
 
   const ViewMatte* Find(const std::string& view_frame) const;

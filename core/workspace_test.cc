@@ -59,6 +59,10 @@ TEST(Workspace, LightsAndProxyRoundTrip) {
   const ProxyFile proxy_back = ReadProxyFile(TempPath("proxy.json"));
   EXPECT_EQ(proxy_back.mesh, proxy.mesh);
   EXPECT_EQ(proxy_back.Find("view/000001")->trimap, "reconstruct/trimaps/000001.png");
+  EXPECT_EQ(proxy_back.normal_map, "");  // optional: absent when there is none
+  proxy.normal_map = "reconstruct/proxy_normals.exr";
+  WriteProxyFile(TempPath("proxy.json"), proxy);
+  EXPECT_EQ(ReadProxyFile(TempPath("proxy.json")).normal_map, proxy.normal_map);
 }
 
 TEST(Workspace, FrameOfUnknownDeviceIsRejected) {

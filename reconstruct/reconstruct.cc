@@ -25,6 +25,7 @@
 #include "core/workspace.h"
 #include "reconstruct/closed_form_matting.h"
 #include "reconstruct/mesh_cleanup.h"
+#include "reconstruct/proxy_normals.h"
 #include "reconstruct/proxy_source.h"
 #include "reconstruct/trimap.h"
 #include "reconstruct/uv_atlas.h"
@@ -207,6 +208,32 @@ void WriteMattes(const fs::path& workspace, const CamerasFile& cameras, const st
   (*report)["frames"] = frame_reports;
 }
 
+// 3. The photometric-stereo normal map (proxy_normals.h) of the proxy as
+// written (with its atlas), when the flash positions are known.
+void WriteNormalMap(const fs::path& workspace, const CamerasFile& cameras,
+                    const std::vector<const CalibratedFrame*>& frames, const NormalMapOptions& options,
+                    StageRun& run, ProxyFile* proxy_file, nlohmann::json* report) {
+  if (!options.enabled) return;
+  const fs::path lights_path = workspace / "calib" / "lights.json";
+  if (!fs::exists(lights_path)) {
+    spdlog::info("normal map: {} is missing (no flash positions); the proxy keeps its mesh normals",
+                 lights_path.string());
+    (*report)["normal_map"] = {{"skipped", "no calib/lights.json"}};
+    return;
+  }
+  run.record().AddInput("lights", lights_path.string());
+  const LightsFile lights = ReadLightsFile(lights_path.string());
+  const render::TriangleMesh mesh = render::LoadMesh((run.path() / "proxy.obj").string());
+  NormalMapStats stats;
+  Image map = run.Step("normal_map", [&] {
+    return EstimateNormalMap(workspace.string(), cameras, lights, frames, mesh, options, &stats);
+  });
+  map.set_channel_names({"R", "G", "B"});
+  WriteImage((run.path() / "proxy_normals.exr").string(), map, PixelStorage::kFloat);
+  proxy_file->normal_map = "reconstruct/proxy_normals.exr";
+  (*report)["normal_map"] = stats.ToJson();
+}
+
 }  // namespace
 
 ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
@@ -234,6 +261,7 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
   }
   ProxyFile proxy_file = WriteProxyMesh(proxy, options, run, &summary, &report);
   WriteMattes(workspace, cameras, frames, proxy, options, run, &proxy_file, &summary, &report);
+  WriteNormalMap(workspace, cameras, frames, options.normal_map, run, &proxy_file, &report);
   WriteProxyFile((run.path() / "proxy.json").string(), proxy_file);
 
   report["mesh"] = mesh_stats.ToJson();

@@ -219,6 +219,7 @@ const OptionFields<ReconstructOptions>& ReconstructOptions::Fields() {
           .Section("atlas", &S::atlas)
           .Section("trimap", &S::trimap)
           .Section("matting", &S::matting)
+          .Section("normal_map", &S::normal_map)
           .OnRead([](OptionsReader& r, S* s) {
             // mesh: alone means "use it"
             if (!s->mesh.empty() && !r.Child("proxy").Has("method")) s->proxy.method = "mesh";

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/option_fields.h"
+#include "reconstruct/proxy_normals.h"
 
 namespace relit::reconstruct {
 
@@ -231,6 +232,7 @@ struct ReconstructOptions {
   AtlasOptions atlas;
   TrimapOptions trimap;
   MattingOptions matting;
+  NormalMapOptions normal_map;
   static const OptionFields<ReconstructOptions>& Fields();
   void Check() const;  // across fields: the workspace, mesh and proxy.method agree
 };

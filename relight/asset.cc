@@ -36,6 +36,7 @@ AssetDescription DescribeWorkspace(const std::string& workspace, ModelSet models
   asset.flash_intensity = cues.flash_intensity;
   asset.cue_max_depth = cues.max_depth;
   asset.mesh = (root / cues.mesh).string();
+  if (!cues.normal_map.empty()) asset.normal_map = (root / cues.normal_map).string();
   asset.support_plane = cues.support_plane;
   double distance = 0;
   for (const CueFrameRecord& f : cues.frames) {
@@ -73,6 +74,7 @@ AssetDescription ReadAsset(const std::string& dir) {
   asset.cue_max_depth = JsonInt(cues, "max_depth", path);
   asset.support_plane = SupportPlane::FromJson(cues.value("support_plane", json()), path);
   asset.mesh = (root / JsonField(j, "mesh", path).get<std::string>()).string();
+  if (j.contains("normal_map")) asset.normal_map = (root / JsonString(j, "normal_map", path)).string();
   for (const json& p : JsonField(j, "partitions", path)) {
     const std::string model = p.value("model", std::string());
     asset.partition_models.push_back(model.empty() ? "" : (root / model).string());
@@ -87,6 +89,7 @@ void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRe
   StageRun out(guard ? AtomicDir(out_dir, *guard) : AtomicDir(out_dir), record, "export.json");
   const fs::path root = out.path();
   fs::copy_file(asset.mesh, root / "proxy.obj");
+  if (!asset.normal_map.empty()) fs::copy_file(asset.normal_map, root / "proxy_normals.exr");
   json partitions = json::array();
   int trained = 0;
   CueFormat format;
@@ -126,8 +129,7 @@ void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRe
     partitions.push_back(entry);
   }
   RELIT_REQUIRE(trained > 0, "export: no trained partition in ", workspace, "/relight/partitions: train first");
-  WriteJsonFile((root / "manifest.json").string(), AssetDescription::kKind, AssetDescription::kVersion,
-                {{"units", "metres"},
+  json manifest = {{"units", "metres"},
                  {"frame", "board frame: origin and x axis from the ChArUco board, +Z up (docs/conventions.md)"},
                  {"layout_options", OptionsToJson(asset.layout_options)},
                  {"layout", PartitionLayout::FromOptions(asset.layout_options).ToJson()},
@@ -144,14 +146,17 @@ void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRe
                    {"support_plane", asset.support_plane.ToJson()}}},
                  {"mesh", "proxy.obj"},
                  {"partitions", partitions},
-                 {"relit_version", RelitVersion()}});
+                 {"relit_version", RelitVersion()}};
+  if (!asset.normal_map.empty()) manifest["normal_map"] = "proxy_normals.exr";
+  WriteJsonFile((root / "manifest.json").string(), AssetDescription::kKind, AssetDescription::kVersion, manifest);
   AtomicWriteFile(root / "README.md",
                   "# relit relightable asset\n\n"
                   "Deferred Neural Lighting asset exported by relit " + std::string(RelitVersion()) + ".\n\n"
                   "- `manifest.json`: layout of the view partitions, object centre, training camera, the radiance-cue\n"
                   "  settings (5 basis materials, light unit, bounces) and, per partition, its network options and\n"
                   "  the log-encoding constant M.\n"
-                  "- `proxy.obj`: the proxy mesh with its UV atlas (metres, board frame, +Z up).\n"
+                  "- `proxy.obj`: the proxy mesh with its UV atlas (metres, board frame, +Z up); `proxy_normals.exr`,\n"
+                  "  when present: its object-space normal map (float RGB, read at the UVs).\n"
                   "- `partitions/KK/`: neural texture and networks (LibTorch `model.pt` + `checkpoint.json`).\n"
                   "- `textures/KK.exr`: level 0 of each neural texture, for inspection.\n\n"
                   "Render it with `relit-render --asset THIS_FOLDER --views views.json --out DIR` (docs/relight.md\n"

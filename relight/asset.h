@@ -6,6 +6,7 @@
 //                          cue settings (basis, light unit, bounces), per
 //                          partition: model folder, network options, M
 //   proxy.obj              the proxy mesh with its UV atlas (world frame, metres)
+//   proxy_normals.exr      its object-space normal map, when it has one
 //   partitions/KK/         checkpoint.json + model.pt (texture + networks)
 //   textures/KK.exr        neural texture level 0 (5 C channels, for inspection)
 //   README.md              what the folder is and how to render it
@@ -40,6 +41,7 @@ struct AssetDescription {
   double flash_intensity = 1;        // W/sr of the cue light = the unit of light intensities
   int cue_max_depth = 4;             // bounces the cues were rendered with
   std::string mesh;                  // absolute path of the proxy mesh
+  std::string normal_map;            // absolute path of its normal map ("" = none)
   SupportPlane support_plane;        // context geometry of every cue scene (support_plane.h)
   std::vector<std::string> partition_models;  // absolute checkpoint folders; "" = not trained
 };

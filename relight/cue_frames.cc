@@ -134,7 +134,8 @@ nlohmann::json CueLight::ToJson() const {
   return {};
 }
 
-std::unique_ptr<render::Scene> LoadProxyScene(const std::string& mesh_path, const SupportPlane& plane) {
+std::unique_ptr<render::Scene> LoadProxyScene(const std::string& mesh_path, const SupportPlane& plane,
+                                              const std::string& normal_map_path) {
   RELIT_REQUIRE(std::filesystem::exists(mesh_path), "proxy mesh ", mesh_path,
                 " does not exist: run the reconstruct stage first");
   render::TriangleMesh mesh = render::LoadMesh(mesh_path);
@@ -142,8 +143,15 @@ std::unique_ptr<render::Scene> LoadProxyScene(const std::string& mesh_path, cons
                 " has no texture coordinates: the neural texture needs the UV atlas of the reconstruct stage");
   if (!mesh.has_normals()) mesh.ComputeVertexNormals();
   auto scene = std::make_unique<render::Scene>();
-  // The cue renderer ignores materials; object id 1 marks the proxy in alpha.
-  scene->AddObject(std::move(mesh), render::Material::Lambert(render::Rgb::Constant(0.5f)), kProxyObjectId);
+  // The cue renderer ignores materials but for their normal map; object id 1
+  // marks the proxy in alpha.
+  render::Material material = render::Material::Lambert(render::Rgb::Constant(0.5f));
+  if (!normal_map_path.empty()) {
+    RELIT_REQUIRE(std::filesystem::exists(normal_map_path), "proxy normal map ", normal_map_path,
+                  " does not exist: run the reconstruct stage again");
+    material.normal_map = render::Texture::FromFile(normal_map_path, false);
+  }
+  scene->AddObject(std::move(mesh), material, kProxyObjectId);
   AddSupportPlane(plane, scene.get());
   scene->Commit();
   return scene;

@@ -94,9 +94,12 @@ struct CueLight {
 // file and the missing channel.
 Image ReadCueFrame(const std::string& path, const CueFormat& format = {});
 
-// The proxy mesh (OBJ with UVs, world frame) as a cue scene. Throws
-// relit::Error naming the file when it cannot be read or has no UVs.
-std::unique_ptr<render::Scene> LoadProxyScene(const std::string& mesh_path, const SupportPlane& plane = {});
+// The proxy mesh (OBJ with UVs, world frame) as a cue scene, shaded with
+// its normal map when `normal_map_path` names one (reconstruct's
+// proxy_normals.exr; "" = the mesh normals). Throws relit::Error naming the
+// file when it cannot be read or has no UVs.
+std::unique_ptr<render::Scene> LoadProxyScene(const std::string& mesh_path, const SupportPlane& plane = {},
+                                              const std::string& normal_map_path = "");
 
 // Renders one cue frame (channels as format.Channels()). Replaces the
 // scene's lights with `light`. Not thread-safe for the same scene (the

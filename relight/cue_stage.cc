@@ -48,6 +48,7 @@ CuesFile ReadCuesFile(const std::string& path) {
   CuesFile file;
   file.camera = IntrinsicsFromJson(JsonField(j, "camera", path), path + ": camera");
   file.mesh = JsonField(j, "mesh", path).get<std::string>();
+  if (j.contains("normal_map")) file.normal_map = JsonString(j, "normal_map", path);
   file.flash_intensity = JsonNumber(j, "flash_intensity", path);
   file.samples_per_pixel = JsonInt(j, "samples_per_pixel", path);
   file.max_depth = JsonInt(j, "max_depth", path);
@@ -82,6 +83,7 @@ void WriteCuesFile(const std::string& path, const CuesFile& file) {
   WriteJsonFile(path, CuesFile::kKind, CuesFile::kVersion,
                 {{"camera", ToJson(file.camera)},
                  {"mesh", file.mesh},
+                 {"normal_map", file.normal_map},
                  {"flash_intensity", file.flash_intensity},
                  {"samples_per_pixel", file.samples_per_pixel},
                  {"max_depth", file.max_depth},
@@ -99,12 +101,17 @@ std::string FrameStem(const std::string& name) {
   return fs::path(name).filename().string();  // "view/000012" -> "000012"
 }
 
+// The proxy's normal map as an absolute path ("" = none).
+std::string NormalMapPath(const fs::path& root, const CuesFile& cues) {
+  return cues.normal_map.empty() ? "" : (root / cues.normal_map).string();
+}
+
 // The table's albedo measured on the phone V frames (table_albedo.h); the
 // default grey when they do not show enough of it lit (a warning says why).
 Eigen::Vector3d MeasureTableAlbedo(const fs::path& root, const fs::path& mesh_path, const CamerasFile& cameras,
                                    const CuesFile& cues, RunRecord& record) {
   auto timer = record.Time("table_albedo");
-  const auto scene = LoadProxyScene(mesh_path.string(), cues.support_plane);
+  const auto scene = LoadProxyScene(mesh_path.string(), cues.support_plane, NormalMapPath(root, cues));
   std::vector<TableAlbedoFrame> frames;
   for (const CueFrameRecord& r : cues.frames) {
     const CalibratedFrame* frame = cameras.Find(r.name);
@@ -153,6 +160,7 @@ CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions&
   CuesFile cues;
   cues.camera = cameras.undistorted_view;
   cues.mesh = proxy.mesh;
+  cues.normal_map = proxy.normal_map;
   cues.flash_intensity = options.flash_intensity;
   cues.samples_per_pixel = options.samples_per_pixel;
   cues.max_depth = options.max_depth;
@@ -181,7 +189,8 @@ CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions&
   const json fingerprint = {{"options", OptionsToJson(options)},
                             {"cameras", HashFile(cameras_path.string())},
                             {"lights", HashFile(lights_path.string())},
-                            {"mesh", HashFile(mesh_path.string())}};
+                            {"mesh", HashFile(mesh_path.string())},
+                            {"normal_map", cues.normal_map.empty() ? 0 : HashFile(NormalMapPath(root, cues))}};
   const fs::path partial = root / "relight" / ".cues.partial";
   const fs::path fingerprint_path = partial / "fingerprint.json";
   bool resume = false;
@@ -217,7 +226,7 @@ CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions&
     }
     cues.support_plane.Check(cameras_path.string());
   }
-  auto scene = LoadProxyScene(mesh_path.string(), cues.support_plane);
+  auto scene = LoadProxyScene(mesh_path.string(), cues.support_plane, NormalMapPath(root, cues));
   CueRenderSettings settings;
   settings.samples_per_pixel = options.samples_per_pixel;
   settings.max_depth = options.max_depth;

@@ -38,6 +38,7 @@ struct CuesFile {
   static constexpr int kVersion = 1;
   Intrinsics camera;              // undistorted pinhole phone V camera
   std::string mesh;               // proxy mesh used, relative to the workspace
+  std::string normal_map;         // its normal map, relative to the workspace; "" (or absent) = none
   double flash_intensity = 1;     // W/sr of the point light the cues assume
   int samples_per_pixel = 0;
   int max_depth = 0;

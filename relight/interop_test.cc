@@ -309,7 +309,7 @@ void ExpectGlbLoadsBack(const std::string& gltf_dir, const std::string& mesh_pat
 TEST_F(InteropTest, UnwrappingPutsEverySurfacePointInItsTexel) {
   const AssetDescription asset = DescribeWorkspace(dir_);
   const render::TriangleMesh mesh = render::LoadMesh(asset.mesh);
-  std::unique_ptr<render::Scene> scene = LoadProxyScene(asset.mesh, asset.support_plane);
+  std::unique_ptr<render::Scene> scene = LoadProxyScene(asset.mesh, asset.support_plane, asset.normal_map);
   const Eigen::Vector3f centre = asset.object_centre_m.cast<float>();
   const float radius = static_cast<float>(asset.object_radius_m);
   auto colour_of = [&](const Eigen::Vector3f& p) -> Eigen::Vector3f {
@@ -377,7 +377,7 @@ TEST_F(InteropTest, GlbLoadsBackAndItsBakeAgreesWithDirectRendersAsWellAsTheMode
 
   const AssetDescription asset = DescribeWorkspace(dir_);
   RelitRenderer renderer(asset);
-  std::unique_ptr<render::Scene> scene = LoadProxyScene(asset.mesh, asset.support_plane);
+  std::unique_ptr<render::Scene> scene = LoadProxyScene(asset.mesh, asset.support_plane, asset.normal_map);
   const int n = bake_->resolution_px;
   std::vector<Camera> cameras;
   std::vector<Image> renders;

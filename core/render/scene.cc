@@ -192,11 +192,16 @@ bool Scene::Intersect(const Vec3f& origin, const Vec3f& direction, float t_min, 
   const Vec3f p1 = instance.world_from_object * mesh.positions[tri[1]];
   const Vec3f p2 = instance.world_from_object * mesh.positions[tri[2]];
   hit->geometric_normal = (p1 - p0).cross(p2 - p0).normalized();
-  const Vec3f n = b0 * mesh.normals[tri[0]] + b1 * mesh.normals[tri[1]] + b2 * mesh.normals[tri[2]];
-  Vec3f shading = (instance.normal_matrix * n);
-  hit->shading_normal = shading.norm() > 0 ? Vec3f(shading.normalized()) : hit->geometric_normal;
   hit->uv = mesh.has_uvs() ? Vec2f(b0 * mesh.uvs[tri[0]] + b1 * mesh.uvs[tri[1]] + b2 * mesh.uvs[tri[2]])
                            : Vec2f::Zero();
+  Vec3f n = b0 * mesh.normals[tri[0]] + b1 * mesh.normals[tri[1]] + b2 * mesh.normals[tri[2]];
+  const Texture& normal_map = materials_[instance.material].normal_map;
+  if (!normal_map.is_constant() && mesh.has_uvs()) {
+    const Rgb mapped = normal_map.Eval(hit->uv);
+    if (mapped.matrix().squaredNorm() > 1e-6f) n = Vec3f(mapped[0], mapped[1], mapped[2]);
+  }
+  const Vec3f shading = instance.normal_matrix * n;
+  hit->shading_normal = shading.norm() > 0 ? Vec3f(shading.normalized()) : hit->geometric_normal;
   hit->barycentric = Vec2f(b1, b2);
   hit->instance = static_cast<int>(rayhit.hit.instID[0]);
   hit->triangle = static_cast<int>(rayhit.hit.primID);

@@ -23,6 +23,12 @@ struct Material {
   Texture specular_albedo = Rgb::Zero();
   Texture roughness = Rgb::Constant(0.3f);   // GGX alpha, read from the first channel
   Rgb f0 = Rgb::Constant(0.04f);
+  // Object-space normal map (unit normals stored as raw floats, read at the
+  // hit's uv): the shading normal where the mesh is coarser than the
+  // surface it stands for. A constant (the default, zero) = the mesh's
+  // interpolated vertex normals. Texels outside the UV charts must hold a
+  // continuation of the charts (bilinear reads at chart borders).
+  Texture normal_map = Rgb::Zero();
 
   static Material Lambert(const Rgb& albedo);
   static Material Glossy(const Rgb& diffuse, const Rgb& specular, float alpha);
