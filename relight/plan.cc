@@ -68,16 +68,15 @@ Plan ReadPlan(const std::string& path) {
 }
 
 void WritePlan(const std::string& path, const Plan& plan) {
-  json frames = json::array();
-  for (const PlanFrame& f : plan.frames) {
-    frames.push_back({{"name", f.name},
-                      {"cues", f.cues},
-                      {"image", f.image},
-                      {"matte", f.matte},
-                      {"direction", ToJson(f.direction)},
-                      {"light_position_m", ToJson(f.light_position_m)},
-                      {"role", f.validation ? "validation" : "train"}});
-  }
+  const json frames = JsonList(plan.frames, [](const PlanFrame& f) {
+    return json{{"name", f.name},
+                {"cues", f.cues},
+                {"image", f.image},
+                {"matte", f.matte},
+                {"direction", ToJson(f.direction)},
+                {"light_position_m", ToJson(f.light_position_m)},
+                {"role", f.validation ? "validation" : "train"}};
+  });
   json partitions = json::array();
   for (const PlanPartition& p : plan.partitions) {
     json train = json::array(), validation = json::array();
