@@ -20,6 +20,7 @@
 #include "bench/bench_scene.h"
 #include "bench/bench_util.h"
 #include "bench/cycles.h"
+#include "bench/cycles_comparison.h"
 #include "core/error.h"
 #include "core/main_wrapper.h"
 #include "core/render/cue_renderer.h"
@@ -36,10 +37,7 @@ struct Options {
   int repeats = 3;
   int threads = 2;
   uint64_t seed = 1;
-  bool cycles = true;
-  std::string blender = "blender";
-  std::string assets_dir = RELIT_BENCH_ASSETS_DIR;
-  std::string script = RELIT_BENCH_SOURCE_DIR "/cycles_scene.py";
+  CyclesComparison cycles;
   std::string output_dir = "bench-out/cues";
 };
 
@@ -113,16 +111,8 @@ SizeResult RunSize(const Options& o, BenchSceneSpec spec, const render::Triangle
   settings.seed = o.seed + 1;
   r.other_seed = relight::RenderCueFrame(scene, camera, light, settings);
 
-  if (o.cycles) {
-    CyclesOptions c;
-    c.blender = o.blender;
-    c.script = o.script;
-    c.output_dir = std::filesystem::absolute(out_dir).string();
-    c.threads = o.threads;
-    c.repeats = o.repeats;
-    c.samples_per_pixel = o.spp;
-    c.max_depth = o.max_depth;
-    c.seed = o.seed;
+  if (o.cycles.enabled) {
+    const CyclesOptions c = o.cycles.Render(out_dir, o.threads, o.repeats, o.spp, o.max_depth, o.seed);
     std::vector<std::string> tokens;
     const std::vector<render::CueBasis> basis = render::DefaultCueBasis();
     for (size_t k = 0; k < basis.size(); ++k) tokens.push_back(BasisToken(static_cast<int>(k), basis[k]));
@@ -215,16 +205,13 @@ int Run(int argc, char** argv) {
   app.add_option("--repeats", o.repeats, "timing repeats; the best is reported")->check(CLI::Range(1, 100));
   app.add_option("--threads", o.threads, "threads for relit and Cycles")->check(CLI::Range(1, 1024));
   app.add_option("--seed", o.seed, "relit seed (Cycles uses the same number)");
-  app.add_flag("!--no-cycles", o.cycles, "skip the Blender Cycles comparison");
-  app.add_option("--blender", o.blender, "Blender executable");
-  app.add_option("--assets", o.assets_dir, "directory holding spot.obj");
-  app.add_option("--cycles-script", o.script, "path of bench/cycles_scene.py");
+  o.cycles.AddOptions(app);
   app.add_option("--output-dir", o.output_dir, "where EXRs and cycles.log are written (one folder per size)");
   CLI11_PARSE(app, argc, argv);
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(o.threads));
 
   BenchSceneSpec spec;
-  spec.mesh_path = o.assets_dir + "/spot.obj";
+  spec.mesh_path = o.cycles.assets_dir + "/spot.obj";
   spec.ground_half_size = 0;  // cue scene: the object alone
   const render::TriangleMesh cow = LoadBenchMesh(&spec);
   std::printf("relit cue benchmark, %s, load average %s\n", Today().c_str(), LoadAverage().c_str());

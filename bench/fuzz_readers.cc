@@ -166,6 +166,26 @@ struct Reader {
   std::function<void(const fs::path& dir, const fs::path& file)> read;
 };
 
+// A seed that relit's own writer makes: `write(path)` to <dir>/<name>, and
+// the text it wrote.
+std::function<std::string(const fs::path&)> WrittenSeed(const std::string& name,
+                                                        std::function<void(const std::string& path)> write) {
+  return [name, write](const fs::path& dir) {
+    write((dir / name).string());
+    return ReadText(dir / name);
+  };
+}
+
+// A seed given as text.
+std::function<std::string(const fs::path&)> TextSeed(std::string text) {
+  return [text](const fs::path&) { return text; };
+}
+
+// Reads a mutant with `read(path)` (what it returns is not needed).
+std::function<void(const fs::path&, const fs::path&)> ReadWith(std::function<void(const std::string& path)> read) {
+  return [read](const fs::path&, const fs::path& file) { read(file.string()); };
+}
+
 relit::CamerasFile SeedCameras() {
   relit::CamerasFile f;
   relit::Intrinsics k;
@@ -192,26 +212,20 @@ relit::CamerasFile SeedCameras() {
 std::vector<Reader> Readers() {
   std::vector<Reader> readers;
   readers.push_back({"yaml", "pipeline.yaml",
-                     [](const fs::path&) {
-                       return std::string(
-                           "inputs: {view: capture/view.mp4, light: capture/light.mp4}\n"
-                           "board: {squares_x: 7, squares_y: 5, square_length_m: 0.03, marker_length_m: 0.022}\n"
-                           "capture:\n  view_select: {target_frames: 50}\n"
-                           "calib:\n  detect: {min_corners: 8}\n"
-                           "reconstruct:\n  atlas: {resolution_px: 256}\n"
-                           "relight:\n  cues: &c {samples_per_pixel: 4}\n  train: {steps: 10}\n"
-                           "  partitions: {layout: single}\n"
-                           "run: {jobs: 1, executor: local}\n");
-                     },
-                     [](const fs::path&, const fs::path& file) { relit::pipeline::PipelineConfig::Load(file.string()); }});
-  readers.push_back({"cameras.json", "cameras.json",
-                     [](const fs::path& dir) {
-                       relit::WriteCamerasFile((dir / "seed_cameras.json").string(), SeedCameras());
-                       return ReadText(dir / "seed_cameras.json");
-                     },
-                     [](const fs::path&, const fs::path& file) { relit::ReadCamerasFile(file.string()); }});
-  readers.push_back({"lights.json", "lights.json",
-                     [](const fs::path& dir) {
+                     TextSeed("inputs: {view: capture/view.mp4, light: capture/light.mp4}\n"
+                              "board: {squares_x: 7, squares_y: 5, square_length_m: 0.03, marker_length_m: 0.022}\n"
+                              "capture:\n  view_select: {target_frames: 50}\n"
+                              "calib:\n  detect: {min_corners: 8}\n"
+                              "reconstruct:\n  atlas: {resolution_px: 256}\n"
+                              "relight:\n  cues: &c {samples_per_pixel: 4}\n  train: {steps: 10}\n"
+                              "  partitions: {layout: single}\n"
+                              "run: {jobs: 1, executor: local}\n"),
+                     ReadWith([](const std::string& path) { relit::pipeline::PipelineConfig::Load(path); })});
+  readers.push_back(
+      {"cameras.json", "cameras.json",
+       WrittenSeed("seed_cameras.json", [](const std::string& path) { relit::WriteCamerasFile(path, SeedCameras()); }),
+       ReadWith([](const std::string& path) { relit::ReadCamerasFile(path); })});
+  readers.push_back({"lights.json", "lights.json", WrittenSeed("seed_lights.json", [](const std::string& path) {
                        relit::LightsFile f;
                        for (int i = 0; i < 2; ++i) {
                          relit::FrameLight l;
@@ -220,77 +234,61 @@ std::vector<Reader> Readers() {
                          l.position_m = Eigen::Vector3d(0.1, 0.2, 0.3 + i);
                          f.frames.push_back(l);
                        }
-                       relit::WriteLightsFile((dir / "seed_lights.json").string(), f);
-                       return ReadText(dir / "seed_lights.json");
-                     },
-                     [](const fs::path&, const fs::path& file) { relit::ReadLightsFile(file.string()); }});
-  readers.push_back({"proxy.json", "proxy.json",
-                     [](const fs::path& dir) {
+                       relit::WriteLightsFile(path, f);
+                     }),
+                     ReadWith([](const std::string& path) { relit::ReadLightsFile(path); })});
+  readers.push_back({"proxy.json", "proxy.json", WrittenSeed("seed_proxy.json", [](const std::string& path) {
                        relit::ProxyFile f;
                        f.mesh = "reconstruct/proxy.obj";
                        f.object_radius_m = 0.1;
                        f.mattes.push_back({"view/000000", "reconstruct/mattes/0.png", "reconstruct/trimaps/0.png"});
-                       relit::WriteProxyFile((dir / "seed_proxy.json").string(), f);
-                       return ReadText(dir / "seed_proxy.json");
-                     },
-                     [](const fs::path&, const fs::path& file) { relit::ReadProxyFile(file.string()); }});
+                       relit::WriteProxyFile(path, f);
+                     }),
+                     ReadWith([](const std::string& path) { relit::ReadProxyFile(path); })});
   readers.push_back({"capture.json", "ws/capture/capture.json",
-                     [](const fs::path&) {
-                       return std::string(
-                           "{\"schema\": \"relit.capture/1\",\n"
-                           " \"inputs\": {\"view\": {\"output_width_px\": 64, \"output_height_px\": 48},\n"
-                           "            \"light\": {\"output_width_px\": 64, \"output_height_px\": 48},\n"
-                           "            \"geometry\": null},\n"
-                           " \"sync\": {\"offset_s\": 0.25},\n"
-                           " \"view_frames\": [{\"index\": 0, \"time_s\": 0.0, \"image\": \"view/000000.png\",\n"
-                           "   \"linear\": \"view_linear/000000.exr\", \"light_frames\": [0]},\n"
-                           "  {\"index\": 1, \"time_s\": 0.5, \"image\": \"view/000001.png\",\n"
-                           "   \"linear\": \"view_linear/000001.exr\", \"light_frames\": [0]}],\n"
-                           " \"light_frames\": [{\"index\": 0, \"time_s\": 0.2, \"image\": \"light/000000.png\"}],\n"
-                           " \"geometry_frames\": []}\n");
-                     },
+                     TextSeed("{\"schema\": \"relit.capture/1\",\n"
+                              " \"inputs\": {\"view\": {\"output_width_px\": 64, \"output_height_px\": 48},\n"
+                              "            \"light\": {\"output_width_px\": 64, \"output_height_px\": 48},\n"
+                              "            \"geometry\": null},\n"
+                              " \"sync\": {\"offset_s\": 0.25},\n"
+                              " \"view_frames\": [{\"index\": 0, \"time_s\": 0.0, \"image\": \"view/000000.png\",\n"
+                              "   \"linear\": \"view_linear/000000.exr\", \"light_frames\": [0]},\n"
+                              "  {\"index\": 1, \"time_s\": 0.5, \"image\": \"view/000001.png\",\n"
+                              "   \"linear\": \"view_linear/000001.exr\", \"light_frames\": [0]}],\n"
+                              " \"light_frames\": [{\"index\": 0, \"time_s\": 0.2, \"image\": \"light/000000.png\"}],\n"
+                              " \"geometry_frames\": []}\n"),
                      [](const fs::path& dir, const fs::path&) { relit::calib::ReadCaptureFile((dir / "ws").string()); }});
-  readers.push_back({"obj", "mesh.obj",
-                     [](const fs::path& dir) {
-                       relit::render::SaveMesh((dir / "seed.obj").string(),
-                                               relit::render::MakeSphere(Eigen::Vector3f(0, 0, 0.1f), 0.05f, 8, 4));
-                       return ReadText(dir / "seed.obj");
-                     },
-                     [](const fs::path&, const fs::path& file) { relit::render::LoadMesh(file.string()); }});
-  readers.push_back({"ply", "mesh.ply",
-                     [](const fs::path& dir) {
-                       relit::render::SaveMesh((dir / "seed.ply").string(),
-                                               relit::render::MakeSphere(Eigen::Vector3f(0, 0, 0.1f), 0.05f, 8, 4));
-                       return ReadText(dir / "seed.ply");
-                     },
-                     [](const fs::path&, const fs::path& file) { relit::render::LoadMesh(file.string()); }});
-  readers.push_back({"exr", "image.exr",
-                     [](const fs::path& dir) {
+  // The same small sphere as OBJ and as PLY.
+  const auto save_sphere = [](const std::string& path) {
+    relit::render::SaveMesh(path, relit::render::MakeSphere(Eigen::Vector3f(0, 0, 0.1f), 0.05f, 8, 4));
+  };
+  const auto load_mesh = [](const std::string& path) { relit::render::LoadMesh(path); };
+  readers.push_back({"obj", "mesh.obj", WrittenSeed("seed.obj", save_sphere), ReadWith(load_mesh)});
+  readers.push_back({"ply", "mesh.ply", WrittenSeed("seed.ply", save_sphere), ReadWith(load_mesh)});
+  readers.push_back({"exr", "image.exr", WrittenSeed("seed.exr", [](const std::string& path) {
                        relit::Image image(8, 8, {"R", "G", "B"});
                        for (size_t i = 0; i < image.data().size(); ++i) image.data()[i] = 0.01f * static_cast<float>(i);
-                       relit::WriteImage((dir / "seed.exr").string(), image);
-                       return ReadText(dir / "seed.exr");
-                     },
-                     [](const fs::path&, const fs::path& file) { relit::ReadImage(file.string()); }});
+                       relit::WriteImage(path, image);
+                     }),
+                     ReadWith([](const std::string& path) { relit::ReadImage(path); })});
   readers.push_back({"views.json", "views.json",
-                     [](const fs::path&) {
-                       return std::string(
-                           "{\"views\": [\n"
-                           " {\"name\": \"front\", \"cam_from_world\": {\"rotation_wxyz\": [1, 0, 0, 0], "
-                           "\"translation_m\": [0, 0, 0.5]},\n"
-                           "  \"intrinsics\": {\"width\": 32, \"height\": 24, \"fx\": 30, \"fy\": 30, \"cx\": 15.5, "
-                           "\"cy\": 11.5, \"distortion\": {\"k1\": 0, \"k2\": 0, \"p1\": 0, \"p2\": 0, \"k3\": 0}},\n"
-                           "  \"light\": {\"type\": \"point\", \"position_m\": [0.3, 0, 0.4], \"intensity\": 1.0}},\n"
-                           " {\"name\": \"sun\", \"cam_from_world\": {\"rotation_wxyz\": [1, 0, 0, 0], "
-                           "\"translation_m\": [0, 0, 0.5]},\n"
-                           "  \"light\": {\"type\": \"directional\", \"direction_to_light\": [0, 0.5, 1], "
-                           "\"irradiance\": [3, 3, 2.8]}},\n"
-                           " {\"name\": \"box\", \"cam_from_world\": {\"rotation_wxyz\": [1, 0, 0, 0], "
-                           "\"translation_m\": [0, 0, 0.5]},\n"
-                           "  \"light\": {\"type\": \"area\", \"corner_m\": [0, 0, 1], \"edge_u_m\": [0.1, 0, 0], "
-                           "\"edge_v_m\": [0, 0.1, 0], \"radiance\": 5}}\n"
-                           "]}\n");
-                     },
+                     TextSeed("{\"views\": [\n"
+                              " {\"name\": \"front\", \"cam_from_world\": {\"rotation_wxyz\": [1, 0, 0, 0], "
+                              "\"translation_m\": [0, 0, 0.5]},\n"
+                              "  \"intrinsics\": {\"width\": 32, \"height\": 24, \"fx\": 30, \"fy\": 30, "
+                              "\"cx\": 15.5, \"cy\": 11.5, "
+                              "\"distortion\": {\"k1\": 0, \"k2\": 0, \"p1\": 0, \"p2\": 0, \"k3\": 0}},\n"
+                              "  \"light\": {\"type\": \"point\", \"position_m\": [0.3, 0, 0.4], "
+                              "\"intensity\": 1.0}},\n"
+                              " {\"name\": \"sun\", \"cam_from_world\": {\"rotation_wxyz\": [1, 0, 0, 0], "
+                              "\"translation_m\": [0, 0, 0.5]},\n"
+                              "  \"light\": {\"type\": \"directional\", \"direction_to_light\": [0, 0.5, 1], "
+                              "\"irradiance\": [3, 3, 2.8]}},\n"
+                              " {\"name\": \"box\", \"cam_from_world\": {\"rotation_wxyz\": [1, 0, 0, 0], "
+                              "\"translation_m\": [0, 0, 0.5]},\n"
+                              "  \"light\": {\"type\": \"area\", \"corner_m\": [0, 0, 1], \"edge_u_m\": [0.1, 0, 0], "
+                              "\"edge_v_m\": [0, 0.1, 0], \"radiance\": 5}}\n"
+                              "]}\n"),
                      [](const fs::path& dir, const fs::path& file) {
                        // An asset without models: a views file that passes
                        // every check then fails at "no mesh" (a relit::Error).

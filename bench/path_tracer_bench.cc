@@ -18,6 +18,7 @@
 #include "bench/bench_scene.h"
 #include "bench/bench_util.h"
 #include "bench/cycles.h"
+#include "bench/cycles_comparison.h"
 #include "bench/raw_embree.h"
 #include "core/error.h"
 #include "core/main_wrapper.h"
@@ -34,10 +35,7 @@ struct Options {
   int repeats = 3;
   int threads = 0;  // 0 = all hardware threads
   uint64_t seed = 0;
-  bool cycles = true;
-  std::string blender = "blender";
-  std::string assets_dir = RELIT_BENCH_ASSETS_DIR;
-  std::string script = RELIT_BENCH_SOURCE_DIR "/cycles_scene.py";
+  CyclesComparison cycles;
   std::string output_dir = "bench-out";
 };
 
@@ -166,10 +164,7 @@ int Run(int argc, char** argv) {
   app.add_option("--threads", o.threads, "threads for relit, Embree and Cycles (0 = all cores)")
       ->check(CLI::Range(0, 1024));
   app.add_option("--seed", o.seed, "relit render seed (Cycles uses the same number)");
-  app.add_flag("!--no-cycles", o.cycles, "skip the Blender Cycles comparison");
-  app.add_option("--blender", o.blender, "Blender executable");
-  app.add_option("--assets", o.assets_dir, "directory holding spot.obj");
-  app.add_option("--cycles-script", o.script, "path of bench/cycles_scene.py");
+  o.cycles.AddOptions(app);
   app.add_option("--output-dir", o.output_dir, "where rendered EXRs and cycles.log are written");
   CLI11_PARSE(app, argc, argv);
   if (o.threads <= 0) o.threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
@@ -177,7 +172,7 @@ int Run(int argc, char** argv) {
   std::filesystem::create_directories(o.output_dir);
 
   BenchSceneSpec spec;
-  spec.mesh_path = o.assets_dir + "/spot.obj";
+  spec.mesh_path = o.cycles.assets_dir + "/spot.obj";
   spec.width = o.width;
   spec.height = o.height;
   const render::TriangleMesh cow = LoadBenchMesh(&spec);
@@ -197,16 +192,8 @@ int Run(int argc, char** argv) {
 
   CyclesResult cycles;
   cycles.status = "skipped (--no-cycles)";
-  if (o.cycles) {
-    CyclesOptions c;
-    c.blender = o.blender;
-    c.script = o.script;
-    c.output_dir = std::filesystem::absolute(o.output_dir).string();
-    c.threads = o.threads;
-    c.repeats = o.repeats;
-    c.samples_per_pixel = o.spp;
-    c.max_depth = o.max_depth;
-    c.seed = o.seed;
+  if (o.cycles.enabled) {
+    const CyclesOptions c = o.cycles.Render(o.output_dir, o.threads, o.repeats, o.spp, o.max_depth, o.seed);
     std::printf("\nrendering with Blender Cycles ...\n%s\n", CyclesCommand(spec, c, materials).c_str());
     std::fflush(stdout);
     cycles = RunCycles(spec, c, materials);

@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/error.h"
+#include "core/render/embree_triangles.h"
 #include "core/run_record.h"
 
 namespace relit::bench {
@@ -30,21 +31,10 @@ namespace {
 // `transform` to `target`.
 void AttachTriangles(RTCDevice device, RTCScene target, const render::TriangleMesh& mesh,
                      const Eigen::Affine3f& transform) {
-  RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
-      geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.positions.size()));
-  for (size_t i = 0; i < mesh.positions.size(); ++i) {
-    const Eigen::Vector3f p = transform * mesh.positions[i];
-    for (int k = 0; k < 3; ++k) vertices[3 * i + k] = p[k];
-  }
-  auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-      geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.triangles.size()));
-  for (size_t i = 0; i < mesh.triangles.size(); ++i) {
-    for (int k = 0; k < 3; ++k) indices[3 * i + k] = static_cast<unsigned>(mesh.triangles[i][k]);
-  }
-  rtcCommitGeometry(geometry);
-  rtcAttachGeometry(target, geometry);
-  rtcReleaseGeometry(geometry);
+  std::vector<Eigen::Vector3f> positions;
+  positions.reserve(mesh.positions.size());
+  for (const Eigen::Vector3f& p : mesh.positions) positions.push_back(transform * p);
+  render::AttachTriangles(device, target, positions, mesh.triangles);
 }
 
 }  // namespace

@@ -239,10 +239,32 @@ ceres::Solver::Summary Solve(BundleProblem* p, const Inliers& inliers, const Bun
   return summary;
 }
 
+// Reprojection errors of one kind of observation: those within outlier_px
+// are summed (squared), the others only counted.
+struct ErrorTally {
+  explicit ErrorTally(double outlier_px) : outlier_px(outlier_px) {}
+
+  double outlier_px;
+  double squared_sum = 0;
+  int inliers = 0, outliers = 0;
+
+  // Adds error `e` (pixels); returns whether it is an inlier.
+  bool Add(double e) {
+    if (!(e <= outlier_px)) {  // NaN too
+      ++outliers;
+      return false;
+    }
+    squared_sum += e * e;
+    ++inliers;
+    return true;
+  }
+  double Rms() const { return inliers > 0 ? std::sqrt(squared_sum / inliers) : 0.0; }
+};
+
 BundleStats Evaluate(const BundleProblem& p, double outlier_px, Inliers* inliers) {
   BundleStats s;
   std::map<std::string, std::pair<double, int>> by_device;
-  double corner_sum = 0, point_sum = 0;
+  ErrorTally corners(outlier_px), points(outlier_px);
   s.frame_corner_rms_px.assign(p.frames.size(), 0.0);
   for (size_t f = 0; f < p.frames.size(); ++f) {
     const BundleFrame& frame = p.frames[f];
@@ -251,16 +273,11 @@ BundleStats Evaluate(const BundleProblem& p, double outlier_px, Inliers* inliers
     int frame_count = 0;
     for (size_t k = 0; k < frame.corner_ids.size(); ++k) {
       const double e = Error(p, static_cast<int>(f), p.corners_world.at(frame.corner_ids[k]), frame.corners_px[k]);
-      const bool inlier = e <= outlier_px;
+      const bool inlier = corners.Add(e);
       if (inliers) inliers->corners[f][k] = inlier;
-      if (!inlier) {
-        ++s.corner_outliers;
-        continue;
-      }
-      corner_sum += e * e;
+      if (!inlier) continue;
       frame_sum += e * e;
       ++frame_count;
-      ++s.corner_observations;
       by_device[frame.device].first += e * e;
       by_device[frame.device].second += 1;
     }
@@ -271,18 +288,16 @@ BundleStats Evaluate(const BundleProblem& p, double outlier_px, Inliers* inliers
       const PointObservation& obs = p.points[i].observations[k];
       if (!p.frames[obs.frame].posed) continue;
       const double e = Error(p, obs.frame, p.points[i].position_m, obs.pixel_px);
-      const bool inlier = e <= outlier_px;
+      const bool inlier = points.Add(e);
       if (inliers) inliers->points[i][k] = inlier;
-      if (!inlier) {
-        ++s.point_outliers;
-        continue;
-      }
-      point_sum += e * e;
-      ++s.point_observations;
     }
   }
-  if (s.corner_observations > 0) s.corner_rms_px = std::sqrt(corner_sum / s.corner_observations);
-  if (s.point_observations > 0) s.point_rms_px = std::sqrt(point_sum / s.point_observations);
+  s.corner_observations = corners.inliers;
+  s.corner_outliers = corners.outliers;
+  s.corner_rms_px = corners.Rms();
+  s.point_observations = points.inliers;
+  s.point_outliers = points.outliers;
+  s.point_rms_px = points.Rms();
   for (const auto& [device, sum] : by_device) s.corner_rms_px_by_device[device] = std::sqrt(sum.first / sum.second);
   return s;
 }

@@ -19,6 +19,7 @@
 #include "core/log.h"
 #include "core/progress.h"
 #include "core/run_record.h"
+#include "core/stage_cli.h"
 #include "core/stage_run.h"
 #include "core/workspace.h"
 
@@ -322,19 +323,15 @@ int RunCalib(int argc, char** argv) {
   CLI::App app{"relit-calib: calibrate both phones against the ChArUco board, register every frame "
                "(board + COLMAP), place phone L's flash for every phone V frame. Reads W/capture, "
                "writes W/calib. See docs/calib.md."};
-  std::string workspace, config, log_level;
-  bool no_sfm = false, options_force = false;
-  app.add_option("--workspace", workspace, "workspace folder W (reads W/capture, writes W/calib)");
-  app.add_option("--config", config, "YAML file with calib options (unknown keys are errors)")
-      ->check(CLI::ExistingFile);
+  StageCommandLine cli("calib", "reads W/capture, writes W/calib");
+  bool no_sfm = false;
+  cli.AddWorkspaceAndConfig(app);
   app.add_flag("--no-sfm", no_sfm, "board poses only, no COLMAP (sfm.enabled: false)");
-  app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
-  app.add_flag("--force", options_force, "replace a W/calib folder that relit-calib did not write");
+  cli.AddLogLevelAndForce(app);
   CLI11_PARSE(app, argc, argv);
-  CalibOptions options = ReadOptionsFile<CalibOptions>(config);
-  if (!workspace.empty()) options.workspace = workspace;
+  CalibOptions options = cli.ReadOptions<CalibOptions>();
   if (no_sfm) options.sfm.enabled = false;
-  return RunStageCommand(std::move(options), options_force, log_level, RunCalibImpl);
+  return cli.RunStage(std::move(options), RunCalibImpl);
 }
 
 }  // namespace relit::calib

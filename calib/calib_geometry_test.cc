@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "calib/calib.h"
+#include "calib/synth_capture_test_util.h"
 #include "calib/capture_file.h"
 #include "calib/truth_accuracy.h"
 #include "capture/capture.h"
@@ -62,12 +63,8 @@ class CalibGeometryTest : public ::testing::Test {
 
 TEST_F(CalibGeometryTest, GeometryPassIsRegisteredAndFeedsTheProxy) {
   const std::string ws = (dir_ / "ws").string();
-  capture::CaptureOptions c;
-  c.view = (synth_ / "view.mp4").string();
-  c.light = (synth_ / "light.mp4").string();
+  capture::CaptureOptions c = testing::SynthCaptureOptions(synth_, ws + "/capture");
   c.geometry = (synth_ / "geometry.mp4").string();
-  c.out = ws + "/capture";
-  c.view_select.target_frames = 1000;
   c.geometry_select.target_frames = 15;  // every other frame of the turn: keeps COLMAP's share of the test short
   capture::RunCaptureImpl(c);
   const json capture = ReadJsonFile(c.out + "/capture.json", "capture", 1);

@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "calib/calib.h"
+#include "calib/synth_capture_test_util.h"
 #include "calib/truth_accuracy.h"
 #include "capture/capture.h"
 #include "core/json_file.h"
@@ -32,26 +33,13 @@ using nlohmann::json;
 TEST(CalibShadowTest, PartialBoardsUnderAFlashShadowStillRegister) {
   const fs::path dir = fs::temp_directory_path() / ("relit_calib_shadow_test_" + std::to_string(::getpid()));
   fs::create_directories(dir);
-  fs::path synth_dir = dir / "synth";
-  if (const char* reuse = std::getenv("RELIT_CALIB_SHADOW_TEST_SYNTH")) {
-    synth_dir = reuse;
-  } else {
-    synth::SynthOptions o = synth::SynthOptions::ForSize("tiny");
-    OptionsReader reader = OptionsReader::FromFile(RELIT_CALIB_SHADOW_TEST_CONFIG);
-    ReadOptions(reader, &o);
-    o.out = synth_dir.string();
-    synth::RunSynthImpl(o);
-  }
+  const fs::path synth_dir =
+      testing::RenderSynthUnlessReused("RELIT_CALIB_SHADOW_TEST_SYNTH", RELIT_CALIB_SHADOW_TEST_CONFIG, dir / "synth");
   const json truth = ReadJsonFile((synth_dir / "truth.json").string(), synth::kTruthKind, synth::kTruthVersion);
   ASSERT_TRUE(truth["videos"]["view"].contains("flash_shadow"));
 
   const fs::path ws = dir / "ws";
-  capture::CaptureOptions c;
-  c.view = (synth_dir / "view.mp4").string();
-  c.light = (synth_dir / "light.mp4").string();
-  c.out = (ws / "capture").string();
-  c.view_select.target_frames = 1000;
-  capture::RunCaptureImpl(c);
+  capture::RunCaptureImpl(testing::SynthCaptureOptions(synth_dir, (ws / "capture").string()));
 
   CalibOptions o;
   o.workspace = ws.string();

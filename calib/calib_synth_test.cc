@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include "calib/calib.h"
+#include "calib/synth_capture_test_util.h"
 #include "calib/truth_accuracy.h"
 #include "capture/capture.h"
 #include "core/error.h"
@@ -37,23 +38,11 @@ class CalibSynthTest : public ::testing::Test {
   static void SetUpTestSuite() {
     dir_ = new fs::path(fs::temp_directory_path() / ("relit_calib_test_" + std::to_string(::getpid())));
     fs::create_directories(*dir_);
-    fs::path synth_dir = *dir_ / "synth";
-    if (const char* reuse = std::getenv("RELIT_CALIB_TEST_SYNTH")) {
-      synth_dir = reuse;
-    } else {
-      synth::SynthOptions o = synth::SynthOptions::ForSize("tiny");
-      OptionsReader reader = OptionsReader::FromFile(RELIT_CALIB_TEST_SYNTH_CONFIG);
-      ReadOptions(reader, &o);
-      o.out = synth_dir.string();
-      synth::RunSynthImpl(o);
-    }
+    const fs::path synth_dir =
+        testing::RenderSynthUnlessReused("RELIT_CALIB_TEST_SYNTH", RELIT_CALIB_TEST_SYNTH_CONFIG, *dir_ / "synth");
     synth_dir_ = new fs::path(synth_dir);
     truth_ = ReadJsonFile((synth_dir / "truth.json").string(), synth::kTruthKind, synth::kTruthVersion);
-    capture::CaptureOptions c;
-    c.view = (synth_dir / "view.mp4").string();
-    c.light = (synth_dir / "light.mp4").string();
-    c.out = (*dir_ / "ws" / "capture").string();
-    c.view_select.target_frames = 1000;
+    const capture::CaptureOptions c = testing::SynthCaptureOptions(synth_dir, (*dir_ / "ws" / "capture").string());
     capture::RunCaptureImpl(c);
     capture_ = ReadJsonFile(c.out + "/capture.json", "capture", 1);
   }
@@ -61,6 +50,19 @@ class CalibSynthTest : public ::testing::Test {
     fs::remove_all(*dir_);
     delete dir_;
     delete synth_dir_;
+  }
+
+  // The message of the relit::Error calib must stop with ("" and a failure
+  // when it runs through).
+  static std::string CalibError(const CalibOptions& o) {
+    try {
+      RunCalibImpl(o);
+    } catch (const Error& e) {
+      std::cout << "error: " << e.what() << "\n";
+      return e.what();
+    }
+    ADD_FAILURE() << "calib ran through bad input";
+    return "";
   }
 
   // A workspace sharing the rendered capture/ folder, without calib/.
@@ -221,13 +223,8 @@ TEST_F(CalibSynthTest, WrongSquareSizeIsCaughtAndNothingIsWritten) {
   const std::string ws = Workspace("wrong_square");
   CalibOptions o = Options(ws);
   o.board.square_length_m *= 1.125;  // 45 mm instead of 40 mm, markers still 30 mm
-  try {
-    RunCalibImpl(o);
-    FAIL() << "a wrong square size was not caught";
-  } catch (const Error& e) {
-    std::cout << "error: " << e.what() << "\n";
-    EXPECT_NE(std::string(e.what()).find("board size mismatch"), std::string::npos) << e.what();
-  }
+  const std::string error = CalibError(o);
+  EXPECT_NE(error.find("board size mismatch"), std::string::npos) << error;
   EXPECT_FALSE(fs::exists(ws + "/calib"));
 }
 
@@ -235,14 +232,9 @@ TEST_F(CalibSynthTest, WrongDictionaryIsAClearError) {
   const std::string ws = Workspace("wrong_dictionary");
   CalibOptions o = Options(ws);
   o.board.dictionary = "DICT_5X5_100";
-  try {
-    RunCalibImpl(o);
-    FAIL() << "a board of another dictionary was detected";
-  } catch (const Error& e) {
-    std::cout << "error: " << e.what() << "\n";
-    EXPECT_NE(std::string(e.what()).find("board never detected"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("DICT_5X5_100"), std::string::npos) << e.what();
-  }
+  const std::string error = CalibError(o);
+  EXPECT_NE(error.find("board never detected"), std::string::npos) << error;
+  EXPECT_NE(error.find("DICT_5X5_100"), std::string::npos) << error;
   EXPECT_FALSE(fs::exists(ws + "/calib"));
 }
 

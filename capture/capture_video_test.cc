@@ -55,6 +55,14 @@ class CaptureVideoTest : public ::testing::Test {
   static void SetUpTestSuite() { dir_ = new TempDir("video"); }
   static void TearDownTestSuite() { delete dir_; }
 
+  // The first 60 % of input `name`, as `cut_name`: a recording cut short.
+  static std::string TruncatedCopy(const std::string& name, const std::string& cut_name) {
+    const std::string cut = *dir_ / cut_name;
+    fs::copy_file(In(name), cut, fs::copy_options::overwrite_existing);
+    fs::resize_file(cut, fs::file_size(cut) * 6 / 10);
+    return cut;
+  }
+
   // The path of a named test input, encoding it if needed.
   static std::string In(const std::string& name) {
     const std::string path = *dir_ / name;
@@ -141,19 +149,13 @@ TEST_F(CaptureVideoTest, RefusesFileThatIsNotAVideo) {
 }
 
 TEST_F(CaptureVideoTest, RefusesTruncatedFileWithoutIndex) {
-  const std::string cut = *dir_ / "moov_cut.mp4";
-  fs::copy_file(In("moov_last.mp4"), cut, fs::copy_options::overwrite_existing);
-  fs::resize_file(cut, fs::file_size(cut) * 6 / 10);
-  CaptureOptions o = TestOptions(cut, In("light.mp4"), *dir_ / "out_moov_cut");
+  CaptureOptions o = TestOptions(TruncatedCopy("moov_last.mp4", "moov_cut.mp4"), In("light.mp4"), *dir_ / "out_moov_cut");
   o.sync.offset_s = 0.0;
   ExpectFailure(o, {"moov_cut.mp4", "truncated or not a video"});
 }
 
 TEST_F(CaptureVideoTest, TruncatedStreamNeedsAllowPartial) {
-  const std::string cut = *dir_ / "view_cut.mp4";
-  fs::copy_file(In("view.mp4"), cut, fs::copy_options::overwrite_existing);
-  fs::resize_file(cut, fs::file_size(cut) * 6 / 10);
-  CaptureOptions o = TestOptions(cut, In("light.mp4"), *dir_ / "out_cut");
+  CaptureOptions o = TestOptions(TruncatedCopy("view.mp4", "view_cut.mp4"), In("light.mp4"), *dir_ / "out_cut");
   o.sync.offset_s = 0.0;
   ExpectFailure(o, {"view_cut.mp4", "decode error at t =", "--allow-partial"});
 

@@ -5,15 +5,12 @@
 #include <gtest/gtest.h>
 
 #include "core/color.h"
+#include "core/test_dir.h"
 
 namespace relit {
 namespace {
 
-std::string TempPath(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / "relit_image_test";
-  std::filesystem::create_directories(dir);
-  return (dir / name).string();
-}
+std::string TempPath(const std::string& name) { return test_support::TempPathIn("relit_image_test", name); }
 
 TEST(Image, MultiChannelExrKeepsNamesAndHalfPrecision) {
   Image image(7, 5, std::vector<std::string>{"cue0.R", "cue0.G", "cue0.B", "u", "v"});

@@ -168,6 +168,10 @@ std::string JsonString(const nlohmann::json& object, const std::string& key,
   return value.get<std::string>();
 }
 
+void JsonListError(const std::string& where, const std::string& key) {
+  Fail(where, ": '", key, "' must be a list");
+}
+
 namespace {
 
 // Reads an array of exactly n numbers.

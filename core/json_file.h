@@ -9,6 +9,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
@@ -60,5 +61,30 @@ double JsonNumber(const nlohmann::json& object, const std::string& key, const st
 int JsonInt(const nlohmann::json& object, const std::string& key, const std::string& where);
 std::string JsonString(const nlohmann::json& object, const std::string& key,
                        const std::string& where);
+
+// Throws "<where>: '<key>' must be a list".
+[[noreturn]] void JsonListError(const std::string& where, const std::string& key);
+
+// The list `key` of `object`, read one item at a time: `read_item(item,
+// where)`, where = "<where>: key[i]" names the item in its messages. A key
+// that is not a list is refused.
+template <typename Item, typename ReadItem>
+std::vector<Item> ReadJsonList(const nlohmann::json& object, const std::string& key, const std::string& where,
+                               ReadItem read_item) {
+  const nlohmann::json& list = JsonField(object, key, where);
+  if (!list.is_array()) JsonListError(where, key);
+  std::vector<Item> items;
+  for (size_t i = 0; i < list.size(); ++i) {
+    items.push_back(read_item(list[i], where + ": " + key + "[" + std::to_string(i) + "]"));
+  }
+  return items;
+}
+// The JSON list of `items`, one `to_json(item)` each.
+template <typename Item, typename ToJsonFn>
+nlohmann::json JsonList(const std::vector<Item>& items, ToJsonFn to_json) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const Item& item : items) list.push_back(to_json(item));
+  return list;
+}
 
 }  // namespace relit

@@ -4,6 +4,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -40,6 +41,14 @@ class JsonFileTest : public test_support::TempDirTest {
     ADD_FAILURE() << "expected relit::Error for " << path;
     return "";
   }
+  // The message of reading `path` as relit.cameras/2, checked to name the
+  // file and to hold every one of `parts`.
+  static std::string CamerasError(const std::string& path, const std::vector<std::string>& parts) {
+    const std::string message = ReadError(path, "cameras", 2);
+    EXPECT_TRUE(Contains(message, path));
+    for (const std::string& part : parts) EXPECT_TRUE(Contains(message, part));
+    return message;
+  }
 };
 
 TEST_F(JsonFileTest, SchemaString) { EXPECT_EQ(SchemaString("cameras", 2), "relit.cameras/2"); }
@@ -58,20 +67,13 @@ TEST_F(JsonFileTest, WriteThenReadRoundTripsWithSchemaFirst) {
 
 TEST_F(JsonFileTest, MissingFileNamesFileAndSchema) {
   const std::string path = Path("nope.json");
-  const std::string message = ReadError(path, "cameras", 2);
-  EXPECT_TRUE(Contains(message, path));
-  EXPECT_TRUE(Contains(message, "does not exist"));
-  EXPECT_TRUE(Contains(message, "relit.cameras/2"));
+  CamerasError(path, {"does not exist", "relit.cameras/2"});
 }
 
 TEST_F(JsonFileTest, ParseErrorHasLineAndColumn) {
   const std::string path = Path("broken.json");
   WriteText(path, "{\n  \"schema\": \"relit.cameras/2\",\n  \"a\": [1, 2,\n}\n");
-  const std::string message = ReadError(path, "cameras", 2);
-  EXPECT_TRUE(Contains(message, path));
-  EXPECT_TRUE(Contains(message, "invalid JSON"));
-  EXPECT_TRUE(Contains(message, "line 4"));
-  EXPECT_TRUE(Contains(message, "column"));
+  const std::string message = CamerasError(path, {"invalid JSON", "line 4", "column"});
   EXPECT_FALSE(Contains(message, "[json.exception"));
 }
 
@@ -80,9 +82,7 @@ TEST_F(JsonFileTest, ParseErrorHasLineAndColumn) {
 TEST_F(JsonFileTest, HostileValuesNameTheFile) {
   const std::string path = Path("huge.json");
   WriteText(path, "{\"schema\": \"relit.cameras/2\", \"fx\": 1e400}\n");
-  const std::string message = ReadError(path, "cameras", 2);
-  EXPECT_TRUE(Contains(message, path)) << message;
-  EXPECT_TRUE(Contains(message, "fit a double")) << message;
+  CamerasError(path, {"fit a double"});
   json j = ToJson(Intrinsics::FromFov(640, 480, 1.1));
   j["width"] = 100000;
   j["height"] = 100000;
@@ -98,10 +98,7 @@ TEST_F(JsonFileTest, HostileValuesNameTheFile) {
 TEST_F(JsonFileTest, MissingSchema) {
   const std::string path = Path("plain.json");
   WriteText(path, "{\"a\": 1}");
-  const std::string message = ReadError(path, "cameras", 2);
-  EXPECT_TRUE(Contains(message, path));
-  EXPECT_TRUE(Contains(message, "no \"schema\""));
-  EXPECT_TRUE(Contains(message, "relit.cameras/2"));
+  CamerasError(path, {"no \"schema\"", "relit.cameras/2"});
 }
 
 TEST_F(JsonFileTest, NotAnObject) {
@@ -113,24 +110,16 @@ TEST_F(JsonFileTest, NotAnObject) {
 TEST_F(JsonFileTest, OtherKind) {
   const std::string path = Path("poses.json");
   WriteJsonFile(path, "poses", 2, json::object());
-  const std::string message = ReadError(path, "cameras", 2);
-  EXPECT_TRUE(Contains(message, path));
-  EXPECT_TRUE(Contains(message, "relit.poses/2"));
-  EXPECT_TRUE(Contains(message, "expected relit.cameras/2"));
+  CamerasError(path, {"relit.poses/2", "expected relit.cameras/2"});
 }
 
 TEST_F(JsonFileTest, NewerAndOlderVersion) {
   const std::string path = Path("cameras.json");
   WriteJsonFile(path, "cameras", 3, json::object());
-  std::string message = ReadError(path, "cameras", 2);
-  EXPECT_TRUE(Contains(message, path));
-  EXPECT_TRUE(Contains(message, "newer relit (relit.cameras/3)"));
-  EXPECT_TRUE(Contains(message, "this build reads relit.cameras/2"));
-  EXPECT_TRUE(Contains(message, "rerun the stage"));
+  CamerasError(path, {"newer relit (relit.cameras/3)", "this build reads relit.cameras/2", "rerun the stage"});
 
   WriteJsonFile(path, "cameras", 1, json::object());
-  message = ReadError(path, "cameras", 2);
-  EXPECT_TRUE(Contains(message, "older relit (relit.cameras/1)"));
+  CamerasError(path, {"older relit (relit.cameras/1)"});
 }
 
 TEST_F(JsonFileTest, MalformedSchema) {

@@ -1,6 +1,7 @@
 // For the tests only: a fresh folder per test, named after the test and the
 // process (tests of one binary may run in parallel with other binaries'),
-// removed when the test ends; and whole-file text helpers.
+// removed when the test ends; a path in a folder kept for a test file; a
+// cache shared by a test binary's processes; and whole-file text helpers.
 #pragma once
 
 #include <filesystem>
@@ -21,6 +22,32 @@ inline std::string ReadText(const std::filesystem::path& path) {
 }
 
 inline void WriteText(const std::filesystem::path& path, const std::string& text) { std::ofstream(path) << text; }
+
+// `name` in the folder one test file shares ("relit_image_test"), made if
+// missing and kept after the run.
+inline std::string TempPathIn(const std::string& folder, const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / folder;
+  std::filesystem::create_directories(dir);
+  return (dir / name).string();
+}
+
+// A folder that a test binary's processes share (CTest runs each test in
+// a process of its own), <tmp>/<prefix><uid>, and a key naming this build of
+// the binary (its size and modification time): what a test renders once is
+// kept under a name with the key, and a rebuilt binary renders afresh.
+struct BuildCache {
+  std::filesystem::path dir;
+  std::string build_key;
+};
+
+inline BuildCache TestBuildCache(const std::string& prefix) {
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe");
+  const auto stamp = std::filesystem::last_write_time(exe).time_since_epoch().count();
+  BuildCache cache{std::filesystem::temp_directory_path() / (prefix + std::to_string(::getuid())),
+                   std::to_string(std::filesystem::file_size(exe)) + "_" + std::to_string(stamp)};
+  std::filesystem::create_directories(cache.dir);
+  return cache;
+}
 
 class TempDirTest : public ::testing::Test {
  protected:

@@ -60,35 +60,31 @@ CamerasFile ReadCamerasFile(const std::string& path) {
     file.devices[name] = IntrinsicsFromJson(value, path + ": devices." + name);
   }
   file.undistorted_view = IntrinsicsFromJson(JsonField(j, "undistorted_view", path), path + ": undistorted_view");
-  const json& frames = JsonField(j, "frames", path);
-  RELIT_REQUIRE(frames.is_array(), path, ": 'frames' must be a list");
-  for (size_t i = 0; i < frames.size(); ++i) {
-    const std::string where = path + ": frames[" + std::to_string(i) + "]";
+  file.frames = ReadJsonList<CalibratedFrame>(j, "frames", path, [&](const json& item, const std::string& where) {
     CalibratedFrame frame;
-    frame.name = JsonString(frames[i], "name", where);
-    frame.device = JsonString(frames[i], "device", where);
+    frame.name = JsonString(item, "name", where);
+    frame.device = JsonString(item, "device", where);
     RELIT_REQUIRE(file.devices.count(frame.device), where, ": unknown device '", frame.device, "'");
-    frame.time_s = JsonNumber(frames[i], "time_s", where);
-    frame.cam_from_world = Rigid3FromJson(JsonField(frames[i], "cam_from_world", where), where);
-    frame.image_linear = JsonString(frames[i], "image_linear", where);
-    frame.image_8bit = JsonString(frames[i], "image_8bit", where);
-    file.frames.push_back(frame);
-  }
+    frame.time_s = JsonNumber(item, "time_s", where);
+    frame.cam_from_world = Rigid3FromJson(JsonField(item, "cam_from_world", where), where);
+    frame.image_linear = JsonString(item, "image_linear", where);
+    frame.image_8bit = JsonString(item, "image_8bit", where);
+    return frame;
+  });
   return file;
 }
 
 void WriteCamerasFile(const std::string& path, const CamerasFile& file) {
   json devices = json::object();
   for (const auto& [name, intrinsics] : file.devices) devices[name] = ToJson(intrinsics);
-  json frames = json::array();
-  for (const CalibratedFrame& frame : file.frames) {
-    frames.push_back({{"name", frame.name},
-                      {"device", frame.device},
-                      {"time_s", frame.time_s},
-                      {"cam_from_world", ToJson(frame.cam_from_world)},
-                      {"image_linear", frame.image_linear},
-                      {"image_8bit", frame.image_8bit}});
-  }
+  const json frames = JsonList(file.frames, [](const CalibratedFrame& frame) {
+    return json{{"name", frame.name},
+                {"device", frame.device},
+                {"time_s", frame.time_s},
+                {"cam_from_world", ToJson(frame.cam_from_world)},
+                {"image_linear", frame.image_linear},
+                {"image_8bit", frame.image_8bit}};
+  });
   WriteJsonFile(path, CamerasFile::kKind, CamerasFile::kVersion,
                 {{"units", "metres; world = board frame, +Z up"},
                  {"board", ToJson(file.board)},
@@ -105,30 +101,26 @@ LightsFile ReadLightsFile(const std::string& path) {
   const json j = ReadJsonFile(path, LightsFile::kKind, LightsFile::kVersion);
   LightsFile file;
   file.flash_offset_m = Vector3FromJson(JsonField(j, "flash_offset_m", path), path + ": flash_offset_m");
-  const json& frames = JsonField(j, "frames", path);
-  RELIT_REQUIRE(frames.is_array(), path, ": 'frames' must be a list");
-  for (size_t i = 0; i < frames.size(); ++i) {
-    const std::string where = path + ": frames[" + std::to_string(i) + "]";
+  file.frames = ReadJsonList<FrameLight>(j, "frames", path, [](const json& item, const std::string& where) {
     FrameLight light;
-    light.view_frame = JsonString(frames[i], "view_frame", where);
-    light.time_s = JsonNumber(frames[i], "time_s", where);
-    light.position_m = Vector3FromJson(JsonField(frames[i], "position_m", where), where);
-    light.nearest_light_gap_s = JsonNumber(frames[i], "nearest_light_gap_s", where);
-    light.reliable = JsonBool(frames[i], "reliable", where);
-    file.frames.push_back(light);
-  }
+    light.view_frame = JsonString(item, "view_frame", where);
+    light.time_s = JsonNumber(item, "time_s", where);
+    light.position_m = Vector3FromJson(JsonField(item, "position_m", where), where);
+    light.nearest_light_gap_s = JsonNumber(item, "nearest_light_gap_s", where);
+    light.reliable = JsonBool(item, "reliable", where);
+    return light;
+  });
   return file;
 }
 
 void WriteLightsFile(const std::string& path, const LightsFile& file) {
-  json frames = json::array();
-  for (const FrameLight& light : file.frames) {
-    frames.push_back({{"view_frame", light.view_frame},
-                      {"time_s", light.time_s},
-                      {"position_m", ToJson(light.position_m)},
-                      {"nearest_light_gap_s", light.nearest_light_gap_s},
-                      {"reliable", light.reliable}});
-  }
+  const json frames = JsonList(file.frames, [](const FrameLight& light) {
+    return json{{"view_frame", light.view_frame},
+                {"time_s", light.time_s},
+                {"position_m", ToJson(light.position_m)},
+                {"nearest_light_gap_s", light.nearest_light_gap_s},
+                {"reliable", light.reliable}};
+  });
   WriteJsonFile(path, LightsFile::kKind, LightsFile::kVersion,
                 {{"units", "metres; world = board frame, +Z up"},
                  {"flash_offset_m", ToJson(file.flash_offset_m)},
@@ -147,21 +139,17 @@ ProxyFile ReadProxyFile(const std::string& path) {
   file.object_centre_m = Vector3FromJson(JsonField(j, "object_centre_m", path), path + ": object_centre_m");
   file.object_radius_m = JsonNumber(j, "object_radius_m", path);
   if (j.contains("normal_map")) file.normal_map = JsonString(j, "normal_map", path);
-  const json& mattes = JsonField(j, "mattes", path);
-  RELIT_REQUIRE(mattes.is_array(), path, ": 'mattes' must be a list");
-  for (size_t i = 0; i < mattes.size(); ++i) {
-    const std::string where = path + ": mattes[" + std::to_string(i) + "]";
-    file.mattes.push_back({JsonString(mattes[i], "view_frame", where), JsonString(mattes[i], "matte", where),
-                           JsonString(mattes[i], "trimap", where)});
-  }
+  file.mattes = ReadJsonList<ViewMatte>(j, "mattes", path, [](const json& item, const std::string& where) {
+    return ViewMatte{JsonString(item, "view_frame", where), JsonString(item, "matte", where),
+                     JsonString(item, "trimap", where)};
+  });
   return file;
 }
 
 void WriteProxyFile(const std::string& path, const ProxyFile& file) {
-  json mattes = json::array();
-  for (const ViewMatte& m : file.mattes) {
-    mattes.push_back({{"view_frame", m.view_frame}, {"matte", m.matte}, {"trimap", m.trimap}});
-  }
+  const json mattes = JsonList(file.mattes, [](const ViewMatte& m) {
+    return json{{"view_frame", m.view_frame}, {"matte", m.matte}, {"trimap", m.trimap}};
+  });
   json j = {{"mesh", file.mesh},
             {"atlas_resolution_px", file.atlas_resolution_px},
             {"object_centre_m", ToJson(file.object_centre_m)},

@@ -5,14 +5,12 @@
 
 #include <gtest/gtest.h>
 
+#include "core/test_dir.h"
+
 namespace relit {
 namespace {
 
-std::string TempPath(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / "relit_workspace_test";
-  std::filesystem::create_directories(dir);
-  return (dir / name).string();
-}
+std::string TempPath(const std::string& name) { return test_support::TempPathIn("relit_workspace_test", name); }
 
 TEST(Workspace, CamerasRoundTrip) {
   CamerasFile file;

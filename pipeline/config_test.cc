@@ -1,6 +1,9 @@
 // pipeline.yaml parsing: errors name file, line and key (also inside the
 // stage sections, read with the stages' own readers); the template and the
 // repository's demo pipeline.yaml parse; per-step configs and parameters.
+#include <string>
+#include <vector>
+
 #include <gtest/gtest.h>
 
 #include "core/error.h"
@@ -24,40 +27,30 @@ std::string ErrorOf(const std::string& yaml) {
   return "(no error)";
 }
 
+// Reading kMinimal + `sections` fails with a message holding every part.
+void ExpectErrorHolds(const std::string& sections, const std::vector<std::string>& parts) {
+  SCOPED_TRACE(sections);
+  const std::string e = ErrorOf(std::string(kMinimal) + sections);
+  for (const std::string& part : parts) EXPECT_NE(e.find(part), std::string::npos) << "'" << part << "' not in: " << e;
+}
+
 TEST(PipelineConfigTest, UnknownTopLevelKeyNamesFileLineAndSuggestion) {
-  const std::string e = ErrorOf(std::string(kMinimal) + "board: {}\ncalibb: {}\n");
-  EXPECT_NE(e.find("/cap/pipeline.yaml:3"), std::string::npos) << e;
-  EXPECT_NE(e.find("unknown key 'calibb'"), std::string::npos) << e;
-  EXPECT_NE(e.find("did you mean 'calib'"), std::string::npos) << e;
+  ExpectErrorHolds("board: {}\ncalibb: {}\n", {"/cap/pipeline.yaml:3", "unknown key 'calibb'", "did you mean 'calib'"});
 }
 
 TEST(PipelineConfigTest, UnknownKeyInsideAStageSectionIsFoundBeforeRunning) {
-  const std::string e =
-      ErrorOf(std::string(kMinimal) + "calib:\n  detect:\n    min_corner: 8\n");
-  EXPECT_NE(e.find("pipeline.yaml:4"), std::string::npos) << e;
-  EXPECT_NE(e.find("'calib.detect.min_corner'"), std::string::npos) << e;
-  EXPECT_NE(e.find("min_corners"), std::string::npos) << e;  // the suggestion
+  ExpectErrorHolds("calib:\n  detect:\n    min_corner: 8\n",
+                   {"pipeline.yaml:4", "'calib.detect.min_corner'", "min_corners" /* the suggestion */});
 }
 
 TEST(PipelineConfigTest, WrongTypesNameLineAndKey) {
-  std::string e = ErrorOf(std::string(kMinimal) + "run:\n  jobs: many\n");
-  EXPECT_NE(e.find("pipeline.yaml:3"), std::string::npos) << e;
-  EXPECT_NE(e.find("'run.jobs'"), std::string::npos) << e;
-  EXPECT_NE(e.find("integer"), std::string::npos) << e;
-
-  e = ErrorOf(std::string(kMinimal) + "capture:\n  view_select: {target_frames: lots}\n");
-  EXPECT_NE(e.find("pipeline.yaml:3"), std::string::npos) << e;
-  EXPECT_NE(e.find("'capture.view_select.target_frames'"), std::string::npos) << e;
-
-  e = ErrorOf(std::string(kMinimal) + "reconstruct:\n  atlas:\n    resolution_px: [1, 2]\n");
-  EXPECT_NE(e.find("pipeline.yaml:4"), std::string::npos) << e;
-  EXPECT_NE(e.find("'reconstruct.atlas.resolution_px'"), std::string::npos) << e;
-
-  e = ErrorOf(std::string(kMinimal) + "board: {squares_x: 7.5}\n");
-  EXPECT_NE(e.find("'board.squares_x'"), std::string::npos) << e;
-
-  e = ErrorOf(std::string(kMinimal) + "relight: 3\n");
-  EXPECT_NE(e.find("'relight' must be a mapping"), std::string::npos) << e;
+  ExpectErrorHolds("run:\n  jobs: many\n", {"pipeline.yaml:3", "'run.jobs'", "integer"});
+  ExpectErrorHolds("capture:\n  view_select: {target_frames: lots}\n",
+                   {"pipeline.yaml:3", "'capture.view_select.target_frames'"});
+  ExpectErrorHolds("reconstruct:\n  atlas:\n    resolution_px: [1, 2]\n",
+                   {"pipeline.yaml:4", "'reconstruct.atlas.resolution_px'"});
+  ExpectErrorHolds("board: {squares_x: 7.5}\n", {"'board.squares_x'"});
+  ExpectErrorHolds("relight: 3\n", {"'relight' must be a mapping"});
 }
 
 TEST(PipelineConfigTest, BadValuesAndMissingInputs) {
@@ -76,13 +69,9 @@ TEST(PipelineConfigTest, BadValuesAndMissingInputs) {
 }
 
 TEST(PipelineConfigTest, KeysRelitSetsItselfAreRejected) {
-  std::string e = ErrorOf(std::string(kMinimal) + "capture:\n  view: other.mp4\n");
-  EXPECT_NE(e.find("pipeline.yaml:3"), std::string::npos) << e;
-  EXPECT_NE(e.find("inputs.view"), std::string::npos) << e;
-  e = ErrorOf(std::string(kMinimal) + "calib: {board: {squares_x: 9}}\n");
-  EXPECT_NE(e.find("top-level board"), std::string::npos) << e;
-  e = ErrorOf(std::string(kMinimal) + "reconstruct: {mesh: a.obj}\n");
-  EXPECT_NE(e.find("inputs.proxy_mesh"), std::string::npos) << e;
+  ExpectErrorHolds("capture:\n  view: other.mp4\n", {"pipeline.yaml:3", "inputs.view"});
+  ExpectErrorHolds("calib: {board: {squares_x: 9}}\n", {"top-level board"});
+  ExpectErrorHolds("reconstruct: {mesh: a.obj}\n", {"inputs.proxy_mesh"});
 }
 
 // A pipeline.yaml written before proxy.photo / proxy.hull became sections

@@ -24,6 +24,16 @@ void RejectOwnedKey(OptionsReader& section, const std::string& key, const std::s
                 section.context(), ".", key, "' itself; set ", instead, " instead");
 }
 
+// The options of a stage that works in the run's workspace, read from its
+// section; the workspace is a placeholder (the run passes its own).
+template <typename S>
+S ReadWorkspaceStageSection(OptionsReader& section) {
+  S options;
+  ReadOptions(section, &options);
+  options.workspace = "W";
+  return options;
+}
+
 std::string Prefix(const PipelineConfig& config, const std::string& section) {
   return config.file + ": " + section + ": ";
 }
@@ -66,9 +76,7 @@ void CheckStageSections(const PipelineConfig& config, const YAML::Node& root) {
       RejectOwnedKey(intrinsics, "view_board_images", "inputs.board_view_images");
       RejectOwnedKey(intrinsics, "light_board_images", "inputs.board_light_images");
     }
-    calib::CalibOptions options;
-    ReadOptions(section, &options);
-    options.workspace = "W";
+    calib::CalibOptions options = ReadWorkspaceStageSection<calib::CalibOptions>(section);
     OptionsReader board = reader.Child("board");
     ReadBoardSpec(board, &options.board);
     CheckSection(config, "calib", options);
@@ -77,10 +85,7 @@ void CheckStageSections(const PipelineConfig& config, const YAML::Node& root) {
     OptionsReader section = reader.Child("reconstruct");
     RejectOwnedKey(section, "workspace", "the workspace (relit run --workspace W)");
     RejectOwnedKey(section, "mesh", "inputs.proxy_mesh");
-    reconstruct::ReconstructOptions options;
-    ReadOptions(section, &options);
-    options.workspace = "W";
-    CheckSection(config, "reconstruct", options);
+    CheckSection(config, "reconstruct", ReadWorkspaceStageSection<reconstruct::ReconstructOptions>(section));
   }
   {
     // The whole relight section, with relit-relight's own readers (no

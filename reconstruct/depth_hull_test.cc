@@ -58,17 +58,8 @@ struct Views {
 Views RingOfViews(bool table = true) {
   Views views;
   const Eigen::Vector3d target(kAxis.x(), kAxis.y(), kHeight / 2);
-  for (double elevation_deg : {20.0, 45.0}) {
-    for (int i = 0; i < 12; ++i) {
-      const double azimuth = 2 * M_PI * (i + (elevation_deg > 30 ? 0.5 : 0.0)) / 12;
-      const double elevation = elevation_deg * M_PI / 180;
-      const Eigen::Vector3d eye = target + 0.4 * Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
-                                                                 std::cos(elevation) * std::sin(azimuth),
-                                                                 std::sin(elevation));
-      views.cameras.push_back(testing::CameraLookingAt(eye, target, 320, 240, 400));
-      views.depths.push_back(RenderDepth(views.cameras.back(), table));
-    }
-  }
+  views.cameras = testing::TwoRingsOfCameras(target, 20.0, 45.0);
+  for (const Camera& camera : views.cameras) views.depths.push_back(RenderDepth(camera, table));
   return views;
 }
 

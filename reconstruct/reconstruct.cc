@@ -21,6 +21,7 @@
 #include "core/progress.h"
 #include "core/render/scene.h"
 #include "core/run_record.h"
+#include "core/stage_cli.h"
 #include "core/stage_run.h"
 #include "core/workspace.h"
 #include "reconstruct/closed_form_matting.h"
@@ -287,26 +288,22 @@ ReconstructSummary RunReconstructImpl(const ReconstructOptions& options) {
 int RunReconstruct(int argc, char** argv) {
   CLI::App app{"relit-reconstruct: proxy mesh (cleanup, UV atlas), trimaps and closed-form alpha mattes. "
                "Reads W/calib/cameras.json, writes W/reconstruct. See docs/reconstruct.md."};
-  std::string workspace, config, mesh, log_level;
-  app.add_option("--workspace", workspace, "workspace folder W (reads W/calib, writes W/reconstruct)");
-  app.add_option("--config", config, "YAML file with reconstruct options (unknown keys are errors)")
-      ->check(CLI::ExistingFile);
+  StageCommandLine cli("reconstruct", "reads W/calib, writes W/reconstruct");
+  std::string mesh;
+  cli.AddWorkspaceAndConfig(app);
   app.add_option("--mesh", mesh, "user-supplied proxy mesh (OBJ/PLY, board frame, metres); sets proxy.method: mesh")
       ->check(CLI::ExistingFile);
   std::string method;
   app.add_option("--proxy-method", method, "dense (default) | sparse | mesh (see docs/reconstruct.md)");
-  app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
-  bool force = false;
-  app.add_flag("--force", force, "replace a W/reconstruct folder that relit-reconstruct did not write");
+  cli.AddLogLevelAndForce(app);
   CLI11_PARSE(app, argc, argv);
-  ReconstructOptions options = ReadOptionsFile<ReconstructOptions>(config);
-  if (!workspace.empty()) options.workspace = workspace;
+  ReconstructOptions options = cli.ReadOptions<ReconstructOptions>();
   if (!mesh.empty()) {
     options.mesh = mesh;
     options.proxy.method = "mesh";
   }
   if (!method.empty()) options.proxy.method = method;
-  return RunStageCommand(std::move(options), force, log_level, RunReconstructImpl);
+  return cli.RunStage(std::move(options), RunReconstructImpl);
 }
 
 }  // namespace relit::reconstruct

@@ -143,6 +143,21 @@ Camera CameraLookingAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target
   return Camera(k, LookAt(eye, target, Eigen::Vector3d::UnitZ()));
 }
 
+std::vector<Camera> TwoRingsOfCameras(const Eigen::Vector3d& target, double low_deg, double high_deg) {
+  std::vector<Camera> cameras;
+  for (double elevation_deg : {low_deg, high_deg}) {
+    for (int i = 0; i < 12; ++i) {
+      const double azimuth = 2 * M_PI * (i + (elevation_deg == high_deg ? 0.5 : 0.0)) / 12;
+      const double elevation = elevation_deg * M_PI / 180;
+      const Eigen::Vector3d eye = target + 0.4 * Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
+                                                                 std::cos(elevation) * std::sin(azimuth),
+                                                                 std::sin(elevation));
+      cameras.push_back(CameraLookingAt(eye, target, 320, 240, 400));
+    }
+  }
+  return cameras;
+}
+
 cv::Mat RenderAnalyticDepth(const Camera& camera,
                             const std::function<double(const Eigen::Vector3d& origin, const Eigen::Vector3d& ray)>& hit,
                             bool table) {

@@ -46,6 +46,11 @@ const TestWorkspace& SharedTestWorkspace(const std::string& name, int frames, in
 Camera CameraLookingAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, int width, int height,
                        double focal_px);
 
+// 12 such cameras (320 x 240, focal 400 px) on each of two rings 0.4 m
+// from `target`, at `low_deg` and `high_deg` elevation; the high ring is
+// turned half a step so that its views fall between the low ring's.
+std::vector<Camera> TwoRingsOfCameras(const Eigen::Vector3d& target, double low_deg, double high_deg);
+
 // Depth along the optical axis (CV_32F metres, 0 = none) of an analytic
 // scene: `hit` gives the object's nearest ray parameter (<= 0: missed) for
 // a unit world ray from the camera centre; a ray that misses it and meets

@@ -39,17 +39,10 @@ cv::Mat RenderDepth(const Camera& camera, double noise_m, std::mt19937* rng) {
 DepthEvidence RingOfViews(double noise_m) {
   DepthEvidence evidence;
   std::mt19937 rng(7);
-  for (double elevation_deg : {15.0, 45.0}) {
-    for (int i = 0; i < 12; ++i) {
-      const double azimuth = 2 * M_PI * (i + (elevation_deg > 20 ? 0.5 : 0.0)) / 12;
-      const double elevation = elevation_deg * M_PI / 180;
-      const Eigen::Vector3d eye = kCentre + 0.4 * Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
-                                                                  std::cos(elevation) * std::sin(azimuth),
-                                                                  std::sin(elevation));
-      evidence.names.push_back("view_" + std::to_string(evidence.cameras.size()));
-      evidence.cameras.push_back(testing::CameraLookingAt(eye, kCentre, 320, 240, 400));
-      evidence.depths.push_back(RenderDepth(evidence.cameras.back(), noise_m, &rng));
-    }
+  evidence.cameras = testing::TwoRingsOfCameras(kCentre, 15.0, 45.0);
+  for (const Camera& camera : evidence.cameras) {
+    evidence.names.push_back("view_" + std::to_string(evidence.names.size()));
+    evidence.depths.push_back(RenderDepth(camera, noise_m, &rng));
   }
   return evidence;
 }

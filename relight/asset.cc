@@ -64,9 +64,7 @@ AssetDescription ReadAsset(const std::string& dir) {
   RELIT_REQUIRE(fs::exists(path), path, " is missing: not a relit asset folder (make one with relit-relight export)");
   const json j = ReadJsonFile(path, AssetDescription::kKind, AssetDescription::kVersion);
   AssetDescription asset;
-  asset.layout_options = PartitionLayoutOptionsFromJson(JsonField(j, "layout_options", path), path);
-  asset.object_centre_m = Vector3FromJson(JsonField(j, "object_centre_m", path), path);
-  asset.object_radius_m = JsonNumber(j, "object_radius_m", path);
+  ReadObjectLayout(j, path, &asset);
   asset.camera = IntrinsicsFromJson(JsonField(j, "camera", path), path + ": camera");
   asset.capture_distance_m = JsonNumber(j, "capture_distance_m", path);
   const json& cues = JsonField(j, "cues", path);
@@ -129,24 +127,21 @@ void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRe
     partitions.push_back(entry);
   }
   RELIT_REQUIRE(trained > 0, "export: no trained partition in ", workspace, "/relight/partitions: train first");
-  json manifest = {{"units", "metres"},
-                 {"frame", "board frame: origin and x axis from the ChArUco board, +Z up (docs/conventions.md)"},
-                 {"layout_options", OptionsToJson(asset.layout_options)},
-                 {"layout", PartitionLayout::FromOptions(asset.layout_options).ToJson()},
-                 {"object_centre_m", ToJson(asset.object_centre_m)},
-                 {"object_radius_m", asset.object_radius_m},
-                 {"camera", ToJson(asset.camera)},
-                 {"capture_distance_m", asset.capture_distance_m},
-                 {"cues",
-                  {{"basis", format.LongBasisNames()},
-                   {"input", format.input},
-                   {"roughness", "GGX alpha (no squaring), specular F0 = 1"},
-                   {"light_unit_w_per_sr", asset.flash_intensity},
-                   {"max_depth", asset.cue_max_depth},
-                   {"support_plane", asset.support_plane.ToJson()}}},
-                 {"mesh", "proxy.obj"},
-                 {"partitions", partitions},
-                 {"relit_version", RelitVersion()}};
+  json manifest = ObjectLayoutJson(asset);
+  manifest.update({{"units", "metres"},
+                   {"frame", "board frame: origin and x axis from the ChArUco board, +Z up (docs/conventions.md)"},
+                   {"camera", ToJson(asset.camera)},
+                   {"capture_distance_m", asset.capture_distance_m},
+                   {"cues",
+                    {{"basis", format.LongBasisNames()},
+                     {"input", format.input},
+                     {"roughness", "GGX alpha (no squaring), specular F0 = 1"},
+                     {"light_unit_w_per_sr", asset.flash_intensity},
+                     {"max_depth", asset.cue_max_depth},
+                     {"support_plane", asset.support_plane.ToJson()}}},
+                   {"mesh", "proxy.obj"},
+                   {"partitions", partitions},
+                   {"relit_version", RelitVersion()}});
   if (!asset.normal_map.empty()) manifest["normal_map"] = "proxy_normals.exr";
   WriteJsonFile((root / "manifest.json").string(), AssetDescription::kKind, AssetDescription::kVersion, manifest);
   AtomicWriteFile(root / "README.md",

@@ -21,6 +21,7 @@
 #include "relight/augment.h"
 #include "relight/relight_options.h"
 #include "relight/train_stage.h"
+#include "relight/test_stages.h"
 #include "relight/test_workspace.h"
 
 namespace relit::relight {
@@ -31,11 +32,7 @@ using nlohmann::json;
 
 constexpr int kWidth = 160, kHeight = 120;
 
-int RunCli(std::vector<std::string> args) {
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  return RunRelight(static_cast<int>(argv.size()), argv.data());
-}
+using testing::RunCli;
 
 class BaselinesTest : public ::testing::Test {
  protected:

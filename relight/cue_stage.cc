@@ -72,14 +72,13 @@ CuesFile ReadCuesFile(const std::string& path) {
 }
 
 void WriteCuesFile(const std::string& path, const CuesFile& file) {
-  json frames = json::array();
-  for (const CueFrameRecord& r : file.frames) {
-    frames.push_back({{"name", r.name},
-                      {"file", r.file},
-                      {"cam_from_world", ToJson(r.cam_from_world)},
-                      {"light_position_m", ToJson(r.light_position_m)},
-                      {"light_reliable", r.light_reliable}});
-  }
+  const json frames = JsonList(file.frames, [](const CueFrameRecord& r) {
+    return json{{"name", r.name},
+                {"file", r.file},
+                {"cam_from_world", ToJson(r.cam_from_world)},
+                {"light_position_m", ToJson(r.light_position_m)},
+                {"light_reliable", r.light_reliable}};
+  });
   WriteJsonFile(path, CuesFile::kKind, CuesFile::kVersion,
                 {{"camera", ToJson(file.camera)},
                  {"mesh", file.mesh},

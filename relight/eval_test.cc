@@ -28,6 +28,7 @@
 #include "relight/augment.h"
 #include "relight/relight_options.h"
 #include "relight/train_stage.h"
+#include "relight/test_stages.h"
 #include "relight/test_workspace.h"
 #include "relight/train_stage.h"
 #include "tools/synth/capture_plan.h"
@@ -47,11 +48,7 @@ std::string WriteTruth(const std::string& dir, bool render_images) {
   return testing::WriteTestTruth(dir, render_images, kWidth, kHeight);
 }
 
-int RunCli(std::vector<std::string> args) {
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  return RunRelight(static_cast<int>(argv.size()), argv.data());
-}
+using testing::RunCli;
 
 class EvalTest : public ::testing::Test {
  protected:
@@ -65,24 +62,14 @@ class EvalTest : public ::testing::Test {
     RunRecord record("test");
     CueStageOptions cues;
     cues.samples_per_pixel = 4;
-    RunCueStage(dir_ + "/ws", cues, record);
-    DatasetOptions dataset;
-    dataset.holdout_every = 4;
-    PartitionLayoutOptions layout;
-    layout.layout = "single";
-    RunPlanStage(dir_ + "/ws", dataset, layout, record);
+    testing::RunCuesAndSinglePartitionPlan(dir_ + "/ws", cues, record);
     truth_ = WriteTruth(dir_ + "/capture", true);
     std::printf("workspace + cues + truth: %.1f s\n", SecondsSince(start));
     start = std::chrono::steady_clock::now();
     ModelOptions model = testing::SmallModel();
-    TrainStageOptions train;
-    train.steps = kSteps;
-    train.checkpoint_every = kSteps;
-    train.validate_every = 0;
-    train.optimizer.crop_px = 64;
+    TrainStageOptions train = testing::ShortTraining(kSteps, 64);
     train.optimizer.learning_rate = 5e-4;  // texture 2e-2 (default); docs/relight.md "Learning check"
     train.optimizer.seed = 5;
-    train.optimizer.threads = 2;
     RunTrainStage(dir_ + "/ws", 0, model, train, true, record);
     std::printf("%d training steps: %.1f s\n", kSteps, SecondsSince(start));
   }

@@ -28,6 +28,7 @@
 #include "relight/relight_options.h"
 #include "relight/train_stage.h"
 #include "relight/render_stage.h"
+#include "relight/test_stages.h"
 #include "relight/test_workspace.h"
 #include "relight/train_stage.h"
 
@@ -56,12 +57,7 @@ class InteropTest : public ::testing::Test {
     RunRecord record("test");
     CueStageOptions cues;
     cues.samples_per_pixel = 4;
-    RunCueStage(dir_, cues, record);
-    DatasetOptions dataset;
-    dataset.holdout_every = 4;
-    PartitionLayoutOptions layout;
-    layout.layout = "single";
-    RunPlanStage(dir_, dataset, layout, record);
+    testing::RunCuesAndSinglePartitionPlan(dir_, cues, record);
     std::printf("workspace + cues: %.1f s\n", SecondsSince(start));
   }
   // Training and the bake only for the tests that need them (ctest runs
@@ -71,13 +67,8 @@ class InteropTest : public ::testing::Test {
     auto start = std::chrono::steady_clock::now();
     RunRecord record("test");
     ModelOptions model = testing::SmallModel();
-    TrainStageOptions train;
-    train.steps = 60;
-    train.checkpoint_every = 60;
-    train.validate_every = 0;
-    train.optimizer.crop_px = 64;
+    TrainStageOptions train = testing::ShortTraining(60, 64);
     train.optimizer.learning_rate = 2e-3;
-    train.optimizer.threads = 2;
     RunTrainStage(dir_, 0, model, train, true, record);
     std::printf("60 training steps: %.1f s\n", SecondsSince(start));
     start = std::chrono::steady_clock::now();

@@ -33,6 +33,7 @@
 #include "relight/metrics.h"
 #include "relight/plan.h"
 #include "relight/train_stage.h"
+#include "relight/test_stages.h"
 #include "relight/test_workspace.h"
 
 namespace relit::relight {
@@ -56,12 +57,7 @@ void PrepareWorkspace(const std::string& dir, int frames, int width_px, bool sup
     cues.support_plane = true;
     cues.table_albedo = {0.22, 0.14, 0.08};
   }
-  RunCueStage(dir, cues, record);
-  DatasetOptions dataset;
-  dataset.holdout_every = 4;
-  PartitionLayoutOptions layout;
-  layout.layout = "single";
-  RunPlanStage(dir, dataset, layout, record);
+  testing::RunCuesAndSinglePartitionPlan(dir, cues, record);
 }
 
 int Run(int argc, char** argv) {
@@ -188,11 +184,9 @@ int Run(int argc, char** argv) {
   const double train_s = SecondsSince(start);
 
   CuesOnlyBaseline baseline(model.texture_resolution_px);
-  for (int index : plan.partitions[0].train_frames) {
-    const PlanFrame& f = plan.frames[index];
-    baseline.Accumulate(ReadCueFrame(dir + "/" + f.cues), ReadImage(dir + "/" + f.image),
-                        ReadImage(dir + "/" + f.matte));
-  }
+  testing::ForEachTrainFrame(dir, plan, [&](const Image& cues, const Image& image, const Image& matte) {
+    baseline.Accumulate(cues, image, matte);
+  });
   baseline.Solve();
   DnlModel trained = LoadModel(fs::path(dir) / "relight/partitions/00/checkpoint");
   std::vector<ImageMetrics> ours, theirs, train_fit;

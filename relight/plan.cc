@@ -31,9 +31,7 @@ Plan ReadPlan(const std::string& path) {
   RELIT_REQUIRE(fs::exists(path), path, " is missing: run `relit-relight plan` first");
   const json j = ReadJsonFile(path, Plan::kKind, Plan::kVersion);
   Plan plan;
-  plan.layout_options = PartitionLayoutOptionsFromJson(JsonField(j, "layout_options", path), path);
-  plan.object_centre_m = Vector3FromJson(JsonField(j, "object_centre_m", path), path);
-  plan.object_radius_m = JsonNumber(j, "object_radius_m", path);
+  ReadObjectLayout(j, path, &plan);
   plan.max_radiance = JsonNumber(j, "max_radiance", path);
   plan.width_px = JsonInt(j, "width_px", path);
   plan.height_px = JsonInt(j, "height_px", path);
@@ -68,16 +66,15 @@ Plan ReadPlan(const std::string& path) {
 }
 
 void WritePlan(const std::string& path, const Plan& plan) {
-  json frames = json::array();
-  for (const PlanFrame& f : plan.frames) {
-    frames.push_back({{"name", f.name},
-                      {"cues", f.cues},
-                      {"image", f.image},
-                      {"matte", f.matte},
-                      {"direction", ToJson(f.direction)},
-                      {"light_position_m", ToJson(f.light_position_m)},
-                      {"role", f.validation ? "validation" : "train"}});
-  }
+  const json frames = JsonList(plan.frames, [](const PlanFrame& f) {
+    return json{{"name", f.name},
+                {"cues", f.cues},
+                {"image", f.image},
+                {"matte", f.matte},
+                {"direction", ToJson(f.direction)},
+                {"light_position_m", ToJson(f.light_position_m)},
+                {"role", f.validation ? "validation" : "train"}};
+  });
   json partitions = json::array();
   for (const PlanPartition& p : plan.partitions) {
     json train = json::array(), validation = json::array();
@@ -88,16 +85,13 @@ void WritePlan(const std::string& path, const Plan& plan) {
                           {"train_frames", train},
                           {"validation_frames", validation}});
   }
-  WriteJsonFile(path, Plan::kKind, Plan::kVersion,
-                {{"layout_options", OptionsToJson(plan.layout_options)},
-                 {"layout", plan.Layout().ToJson()},
-                 {"object_centre_m", ToJson(plan.object_centre_m)},
-                 {"object_radius_m", plan.object_radius_m},
-                 {"max_radiance", plan.max_radiance},
-                 {"width_px", plan.width_px},
-                 {"height_px", plan.height_px},
-                 {"frames", frames},
-                 {"partitions", partitions}});
+  json body = ObjectLayoutJson(plan);
+  body.update({{"max_radiance", plan.max_radiance},
+               {"width_px", plan.width_px},
+               {"height_px", plan.height_px},
+               {"frames", frames},
+               {"partitions", partitions}});
+  WriteJsonFile(path, Plan::kKind, Plan::kVersion, body);
 }
 
 Plan MakePlan(const std::string& workspace, const DatasetOptions& dataset,

@@ -17,7 +17,10 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 
+#include "core/json_file.h"
+#include "core/option_fields.h"
 #include "relight/partitions.h"
 #include "relight/stage_options.h"
 
@@ -58,6 +61,24 @@ struct Plan {
   PartitionLayout Layout() const { return PartitionLayout::FromOptions(layout_options); }
   int FrameIndex(const std::string& name) const;  // -1 when absent
 };
+
+// The object and its partition layout, as plan.json and an asset's
+// manifest.json (taken from the plan) both record them: layout_options,
+// layout (derived, for other readers), object_centre_m, object_radius_m.
+// `Record` is Plan or AssetDescription.
+template <typename Record>
+nlohmann::json ObjectLayoutJson(const Record& r) {
+  return {{"layout_options", OptionsToJson(r.layout_options)},
+          {"layout", PartitionLayout::FromOptions(r.layout_options).ToJson()},
+          {"object_centre_m", ToJson(r.object_centre_m)},
+          {"object_radius_m", r.object_radius_m}};
+}
+template <typename Record>
+void ReadObjectLayout(const nlohmann::json& j, const std::string& path, Record* r) {
+  r->layout_options = PartitionLayoutOptionsFromJson(JsonField(j, "layout_options", path), path);
+  r->object_centre_m = Vector3FromJson(JsonField(j, "object_centre_m", path), path);
+  r->object_radius_m = JsonNumber(j, "object_radius_m", path);
+}
 
 Plan ReadPlan(const std::string& path);
 void WritePlan(const std::string& path, const Plan& plan);

@@ -23,6 +23,7 @@
 #include "relight/metrics.h"
 #include "relight/plan.h"
 #include "relight/render_stage.h"
+#include "relight/test_stages.h"
 #include "relight/test_workspace.h"
 #include "relight/train_stage.h"
 #include "relight/warm_start.h"
@@ -58,13 +59,8 @@ class RelightStageTest : public ::testing::Test {
     CueStageOptions cues;
     cues.samples_per_pixel = 8;
     RunRecord record("test");
-    RunCueStage(dir_, cues, record);
-    std::printf("cues: %.1f s\n", SecondsSince(cues_start));
-    DatasetOptions dataset;
-    dataset.holdout_every = 4;
-    PartitionLayoutOptions layout;
-    layout.layout = "single";
-    RunPlanStage(dir_, dataset, layout, record);
+    testing::RunCuesAndSinglePartitionPlan(dir_, cues, record);
+    std::printf("cues + plan: %.1f s\n", SecondsSince(cues_start));
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
   static std::string dir_;
@@ -115,19 +111,15 @@ TEST_F(RelightStageTest, TrainedModelBeatsCuesOnlyBaselineOnHeldOutFrames) {
 
   const Plan plan = ReadPlan(dir_ + "/relight/plan/plan.json");
   CuesOnlyBaseline baseline(SmallModel().texture_resolution_px);
-  for (int index : plan.partitions[0].train_frames) {
-    const PlanFrame& f = plan.frames[index];
-    baseline.Accumulate(ReadCueFrame(dir_ + "/" + f.cues), ReadImage(dir_ + "/" + f.image),
-                        ReadImage(dir_ + "/" + f.matte));
-  }
+  testing::ForEachTrainFrame(dir_, plan, [&](const Image& cues, const Image& image, const Image& matte) {
+    baseline.Accumulate(cues, image, matte);
+  });
   baseline.Solve();
   // The smooth fit the model starts from (train.cue_fit defaults).
   CueTextureFit smooth_fit(SmallModel().texture_resolution_px, training.optimizer.cue_fit);
-  for (int index : plan.partitions[0].train_frames) {
-    const PlanFrame& f = plan.frames[index];
-    smooth_fit.AddFrame(ReadCueFrame(dir_ + "/" + f.cues), ReadImage(dir_ + "/" + f.image),
-                        ReadImage(dir_ + "/" + f.matte));
-  }
+  testing::ForEachTrainFrame(dir_, plan, [&](const Image& cues, const Image& image, const Image& matte) {
+    smooth_fit.AddFrame(cues, image, matte);
+  });
   smooth_fit.Solve();
   DnlModel trained = LoadModel(fs::path(dir_) / "relight/partitions/00/checkpoint");
   // The residual model at step 0: its cue regression warm-started on the

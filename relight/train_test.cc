@@ -232,6 +232,23 @@ TEST(CheckpointTest, ResumingReproducesTheUninterruptedRun) {
   EXPECT_THROW(LoadTrainer(temp.path() / "missing"), Error);
 }
 
+// `model` renders every 32 x 32 frame's target: mean absolute error inside
+// the coverage below `relative_error` x the target's mean there, and, when
+// `alpha_error` > 0, alpha within that of the coverage everywhere.
+void ExpectRendersTargets(DnlModel& model, const std::vector<Batch>& frames, double relative_error,
+                          double alpha_error = 0) {
+  for (const Batch& f : frames) {
+    const auto rgba = model->Render(f);
+    const auto inside = f.coverage > 0.5;
+    const auto error = (rgba.slice(1, 0, 3) - f.target_rgb).abs().masked_select(inside.expand({1, 3, 32, 32}));
+    const double scale = f.target_rgb.masked_select(inside.expand({1, 3, 32, 32})).mean().item<double>();
+    EXPECT_LT(error.mean().item<double>(), relative_error * scale);
+    if (alpha_error > 0) {
+      EXPECT_LT((rgba.slice(1, 3, 4) - f.coverage).abs().max().item<double>(), alpha_error);
+    }
+  }
+}
+
 // The residual variant's warm start on frames whose targets are exactly a
 // per-texel linear model of the cues: the least-squares fit recovers it, and
 // the step-0 model renders the targets with the proxy's coverage as alpha.
@@ -252,14 +269,7 @@ TEST(ResidualModelTest, WarmStartReproducesALinearCueModelAndTheCoverage) {
   std::printf("warm start: %lld pixels, %lld of %lld texels seen\n", static_cast<long long>(fit.stats.pixels),
               static_cast<long long>(fit.stats.texels_seen), static_cast<long long>(fit.texels));
   EXPECT_GT(fit.stats.pixels, 12 * 500);
-  for (const Batch& f : frames) {
-    const auto rgba = model->Render(f);
-    const auto inside = f.coverage > 0.5;
-    const auto error = (rgba.slice(1, 0, 3) - f.target_rgb).abs().masked_select(inside.expand({1, 3, 32, 32}));
-    const double scale = f.target_rgb.masked_select(inside.expand({1, 3, 32, 32})).mean().item<double>();
-    EXPECT_LT(error.mean().item<double>(), 0.01 * scale);
-    EXPECT_LT((rgba.slice(1, 3, 4) - f.coverage).abs().max().item<double>(), 2e-3);
-  }
+  ExpectRendersTargets(model, frames, 0.01, 2e-3);
   // Texels seen by many pixels hold the true weights.
   const auto seen = (model->regression() - weights).abs().amax(1).flatten();
   EXPECT_LT(std::get<0>(seen.sort()).slice(0, 0, fit.stats.texels_seen / 2).max().item<double>(), 0.02);
@@ -288,13 +298,7 @@ TEST(ResidualModelTest, SmoothWarmStartReproducesASmoothLinearCueModel) {
   const WarmStartResult fit = WarmStartCueRegression(model, frames, fit_options);
   EXPECT_GT(fit.stats.pixels, 12 * 500);
   EXPECT_GT(fit.stats.iterations, 0);
-  for (const Batch& f : frames) {
-    const auto rgba = model->Render(f);
-    const auto inside = f.coverage > 0.5;
-    const auto error = (rgba.slice(1, 0, 3) - f.target_rgb).abs().masked_select(inside.expand({1, 3, 32, 32}));
-    const double scale = f.target_rgb.masked_select(inside.expand({1, 3, 32, 32})).mean().item<double>();
-    EXPECT_LT(error.mean().item<double>(), 0.02 * scale);
-  }
+  ExpectRendersTargets(model, frames, 0.02);
 }
 
 // From the warm start, training the corrections lowers the loss on the

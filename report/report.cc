@@ -14,6 +14,7 @@
 #include "core/options.h"
 #include "core/progress.h"
 #include "core/run_record.h"
+#include "core/stage_cli.h"
 #include "core/stage_run.h"
 #include "report/sections.h"
 
@@ -104,17 +105,11 @@ ReportSummary RunReportImpl(const ReportOptions& options) {
 int RunReport(int argc, char** argv) {
   CLI::App app{"relit-report: offline HTML report of a workspace (capture, calibration, coverage, proxy, "
                "training curves, turntables, evaluation). Writes W/report/index.html. See docs/report.md."};
-  std::string workspace, config, log_level;
-  app.add_option("--workspace", workspace, "workspace folder W (writes W/report)");
-  app.add_option("--config", config, "YAML file with report options (unknown keys are errors)")
-      ->check(CLI::ExistingFile);
-  app.add_option("--log-level", log_level, "trace | debug | info | warn | error");
-  bool force = false;
-  app.add_flag("--force", force, "replace a W/report folder that relit-report did not write");
+  StageCommandLine cli("report", "writes W/report");
+  cli.AddWorkspaceAndConfig(app);
+  cli.AddLogLevelAndForce(app);
   CLI11_PARSE(app, argc, argv);
-  ReportOptions options = ReadOptionsFile<ReportOptions>(config);
-  if (!workspace.empty()) options.workspace = workspace;
-  return RunStageCommand(std::move(options), force, log_level, RunReportImpl);
+  return cli.RunStage(cli.ReadOptions<ReportOptions>(), RunReportImpl);
 }
 
 }  // namespace relit::report

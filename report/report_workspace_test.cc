@@ -27,6 +27,7 @@
 #include "core/json_file.h"
 #include "core/options.h"
 #include "core/shell.h"
+#include "core/test_dir.h"
 #include "core/workspace.h"
 #include "reconstruct/reconstruct.h"
 #include "relight/partitions.h"
@@ -127,12 +128,9 @@ class ReportWorkspaceTest : public ::testing::Test {
   static void SetUpTestSuite() {
     scratch_ = new fs::path(fs::temp_directory_path() / ("relit_report_test_" + std::to_string(::getpid())));
     fs::create_directories(*scratch_);
-    const fs::path exe = fs::read_symlink("/proc/self/exe");
-    const auto stamp = fs::last_write_time(exe).time_since_epoch().count();
-    const fs::path cache = fs::temp_directory_path() / ("relit_report_test_cache_" + std::to_string(::getuid()));
-    fs::create_directories(cache);
-    const std::string key = "ws_" + std::to_string(fs::file_size(exe)) + "_" + std::to_string(stamp);
-    cached_ = new fs::path(cache / key);
+    const test_support::BuildCache build_cache = test_support::TestBuildCache("relit_report_test_cache_");
+    const fs::path& cache = build_cache.dir;
+    cached_ = new fs::path(cache / ("ws_" + build_cache.build_key));
     const int lock = ::open((cache / "lock").c_str(), O_CREAT | O_RDWR, 0644);
     ASSERT_GE(lock, 0);
     ASSERT_EQ(::flock(lock, LOCK_EX), 0);

@@ -84,11 +84,9 @@ void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec
     const bool context = is_context(hit.object_id);
     if (context && bounce == 0) return;
 
-    Vec3f ng = hit.geometric_normal, ns = hit.shading_normal;
-    if (ng.dot(direction) > 0) ng = -ng;
-    if (ns.dot(ng) < 0) ns = -ns;
-    const Frame frame(ns);
-    const Vec3f wo = frame.ToLocal(-direction);
+    const ShadingPoint shading(hit, direction);
+    const Vec3f &ng = shading.ng, &wo = shading.wo;
+    const Frame& frame = shading.frame;
     if (wo.z() <= 0) return;
 
     // The BSDF each cue sees here: its basis material on the proxy; on a

@@ -42,6 +42,23 @@ inline bool NextHit(const Scene& scene, int bounce, const Hit* primary, const Ve
   return scene.Intersect(origin, direction, 0.0f, kInfinity, hit);
 }
 
+// Two-sided shading at a hit: the geometric normal and the shading frame
+// flipped to the side the ray arrives from, and the outgoing direction in
+// that frame (wo.z() <= 0: the shading normal faces away, the path ends).
+struct ShadingPoint {
+  ShadingPoint(const Hit& hit, const Vec3f& direction) {
+    ng = hit.geometric_normal;
+    Vec3f ns = hit.shading_normal;
+    if (ng.dot(direction) > 0) ng = -ng;
+    if (ns.dot(ng) < 0) ns = -ns;
+    frame = Frame(ns);
+    wo = frame.ToLocal(-direction);
+  }
+  Vec3f ng;
+  Frame frame;
+  Vec3f wo;
+};
+
 // Emitted radiance seen along `direction` when a ray escapes the scene
 // (environment) or hits a quad light, weighted by the power heuristic against
 // light sampling unless the ray came from the camera (bsdf_pdf < 0).

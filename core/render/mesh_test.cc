@@ -7,14 +7,12 @@
 
 #include <gtest/gtest.h>
 
+#include "core/test_dir.h"
+
 namespace relit::render {
 namespace {
 
-std::string TempPath(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / "relit_mesh_test";
-  std::filesystem::create_directories(dir);
-  return (dir / name).string();
-}
+std::string TempPath(const std::string& name) { return test_support::TempPathIn("relit_mesh_test", name); }
 
 TEST(Mesh, ObjWithSeamSplitsVertices) {
   const std::string path = TempPath("seam.obj");

@@ -51,12 +51,9 @@ Rgb TraceRadianceFrom(const Scene& scene, const Vec3f& origin_in, const Vec3f& d
     }
     if (bounce >= options.max_depth) break;
 
-    // Two-sided shading: flip the frame to the side the ray arrives from.
-    Vec3f ng = hit.geometric_normal, ns = hit.shading_normal;
-    if (ng.dot(direction) > 0) ng = -ng;
-    if (ns.dot(ng) < 0) ns = -ns;
-    const Frame frame(ns);
-    const Vec3f wo = frame.ToLocal(-direction);
+    const ShadingPoint shading(hit, direction);
+    const Vec3f &ng = shading.ng, &wo = shading.wo;
+    const Frame& frame = shading.frame;
     if (wo.z() <= 0) break;
     const BsdfParams bsdf = scene.material(hit.material).At(hit.uv);
 

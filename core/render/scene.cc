@@ -5,6 +5,7 @@
 #include <embree3/rtcore.h>
 
 #include "core/error.h"
+#include "core/render/embree_triangles.h"
 
 namespace relit::render {
 
@@ -115,6 +116,24 @@ int Scene::light_count() const {
          (environment_.valid() ? 1 : 0);
 }
 
+void AttachTriangles(RTCDevice device, RTCScene target, const std::vector<Eigen::Vector3f>& positions,
+                     const std::vector<Eigen::Vector3i>& triangles) {
+  RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
+      geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), positions.size()));
+  for (size_t i = 0; i < positions.size(); ++i) {
+    for (int k = 0; k < 3; ++k) vertices[3 * i + k] = positions[i][k];
+  }
+  auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+      geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), triangles.size()));
+  for (size_t i = 0; i < triangles.size(); ++i) {
+    for (int k = 0; k < 3; ++k) indices[3 * i + k] = static_cast<unsigned>(triangles[i][k]);
+  }
+  rtcCommitGeometry(geometry);
+  rtcAttachGeometry(target, geometry);
+  rtcReleaseGeometry(geometry);
+}
+
 void Scene::Commit() {
   EmbreeState& e = *embree_;
   if (e.top) rtcReleaseScene(e.top);
@@ -122,20 +141,7 @@ void Scene::Commit() {
   e.prototypes.clear();
   for (const TriangleMesh& mesh : meshes_) {
     RTCScene proto = rtcNewScene(e.device);
-    RTCGeometry geometry = rtcNewGeometry(e.device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
-        geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.positions.size()));
-    for (size_t i = 0; i < mesh.positions.size(); ++i) {
-      for (int k = 0; k < 3; ++k) vertices[3 * i + k] = mesh.positions[i][k];
-    }
-    auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-        geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.triangles.size()));
-    for (size_t i = 0; i < mesh.triangles.size(); ++i) {
-      for (int k = 0; k < 3; ++k) indices[3 * i + k] = static_cast<unsigned>(mesh.triangles[i][k]);
-    }
-    rtcCommitGeometry(geometry);
-    rtcAttachGeometry(proto, geometry);
-    rtcReleaseGeometry(geometry);
+    AttachTriangles(e.device, proto, mesh.positions, mesh.triangles);
     rtcSetSceneBuildQuality(proto, RTC_BUILD_QUALITY_HIGH);
     rtcCommitScene(proto);
     e.prototypes.push_back(proto);

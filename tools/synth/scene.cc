@@ -113,24 +113,31 @@ SynthObject MakeObject(const std::string& name, int id, render::TriangleMesh mes
   return object;
 }
 
+// Object `name` (id 1) with a `diffuse` texture and painted specular and
+// roughness patches (MakePaintPatches), its textures named <name>_*.
+SynthObject MakePaintedObject(const std::string& name, render::TriangleMesh mesh, const Image& diffuse,
+                              int patches_size_px, uint64_t patches_seed) {
+  Image specular, roughness;
+  MakePaintPatches(patches_size_px, patches_seed, &specular, &roughness);
+  render::Material material;  // f0 0.04: a dielectric
+  material.diffuse_albedo = render::Texture::FromImage(diffuse, false);
+  material.specular_albedo = render::Texture::FromImage(specular, false);
+  material.roughness = render::Texture::FromImage(roughness, false);
+  return MakeObject(name, 1, std::move(mesh), std::move(material),
+                    {{name + "_diffuse_albedo", diffuse},
+                     {name + "_specular_albedo", specular},
+                     {name + "_roughness", roughness}},
+                    {{"diffuse_albedo", name + "_diffuse_albedo"},
+                     {"specular_albedo", name + "_specular_albedo"},
+                     {"roughness", name + "_roughness"}});
+}
+
 void AddSpot(const std::string& assets_dir, SynthScene* scene) {
   render::TriangleMesh mesh = LoadStandingMesh(assets_dir + "/spot.obj", 0.12, 0.5);
   RELIT_REQUIRE(mesh.has_uvs(), "spot.obj has no texture coordinates");
   const Image texture = ReadImage(assets_dir + "/spot_texture.png").SelectChannels(std::vector<int>{0, 1, 2});
   const Image diffuse = DecodeImage(texture, TransferFunction::kSrgb);
-  Image specular, roughness;
-  MakePaintPatches(512, 0x5b07, &specular, &roughness);
-  render::Material material;
-  material.diffuse_albedo = render::Texture::FromImage(diffuse, false);
-  material.specular_albedo = render::Texture::FromImage(specular, false);
-  material.roughness = render::Texture::FromImage(roughness, false);
-  material.f0 = Rgb::Constant(0.04f);
-  scene->objects.push_back(MakeObject(
-      "spot", 1, std::move(mesh), std::move(material),
-      {{"spot_diffuse_albedo", diffuse}, {"spot_specular_albedo", specular}, {"spot_roughness", roughness}},
-      {{"diffuse_albedo", "spot_diffuse_albedo"},
-       {"specular_albedo", "spot_specular_albedo"},
-       {"roughness", "spot_roughness"}}));
+  scene->objects.push_back(MakePaintedObject("spot", std::move(mesh), diffuse, 512, 0x5b07));
 }
 
 void AddBunny(const std::string& assets_dir, SynthScene* scene) {
@@ -166,19 +173,7 @@ void AddCustomMesh(const CustomMesh& custom, SynthScene* scene) {
                                         {}, {}));
     return;
   }
-  const Image diffuse = MakeColourTexture(256);
-  Image specular, roughness;
-  MakePaintPatches(256, 0xc057, &specular, &roughness);
-  render::Material material;
-  material.diffuse_albedo = render::Texture::FromImage(diffuse, false);
-  material.specular_albedo = render::Texture::FromImage(specular, false);
-  material.roughness = render::Texture::FromImage(roughness, false);
-  scene->objects.push_back(MakeObject(
-      "object", 1, std::move(mesh), std::move(material),
-      {{"object_diffuse_albedo", diffuse}, {"object_specular_albedo", specular}, {"object_roughness", roughness}},
-      {{"diffuse_albedo", "object_diffuse_albedo"},
-       {"specular_albedo", "object_specular_albedo"},
-       {"roughness", "object_roughness"}}));
+  scene->objects.push_back(MakePaintedObject("object", std::move(mesh), MakeColourTexture(256), 256, 0xc057));
 }
 
 void AddSpheres(SynthScene* scene) {

@@ -20,6 +20,7 @@
 #include "core/json_file.h"
 #include "core/median.h"
 #include "core/render/mesh.h"
+#include "core/test_dir.h"
 #include "tools/synth/audio.h"
 #include "tools/synth/ffmpeg_io.h"
 #include "tools/synth/synth.h"
@@ -29,6 +30,15 @@ namespace relit::synth {
 namespace {
 
 namespace fs = std::filesystem;
+
+// The capture these tests check: tiny size, spot preset, seed 7, into `out`.
+SynthOptions TinySpotSeed7(const fs::path& out) {
+  SynthOptions options = SynthOptions::ForSize("tiny");
+  options.preset = "spot";
+  options.seed = 7;
+  options.out = out.string();
+  return options;
+}
 
 class SynthRenderTest : public ::testing::Test {
  protected:
@@ -46,11 +56,9 @@ class SynthRenderTest : public ::testing::Test {
       capture_ = new fs::path(fs::absolute(existing));
       summary_ = new SynthSummary();
     } else {
-      const fs::path exe = fs::read_symlink("/proc/self/exe");
-      const auto stamp = fs::last_write_time(exe).time_since_epoch().count();
-      const fs::path cache = fs::temp_directory_path() / ("relit_synth_test_cache_" + std::to_string(::getuid()));
-      fs::create_directories(cache);
-      const std::string key = "tiny_spot_7_" + std::to_string(fs::file_size(exe)) + "_" + std::to_string(stamp);
+      const test_support::BuildCache build_cache = test_support::TestBuildCache("relit_synth_test_cache_");
+      const fs::path& cache = build_cache.dir;
+      const std::string key = "tiny_spot_7_" + build_cache.build_key;
       capture_ = new fs::path(cache / key);
       const int lock = ::open((cache / (key + ".lock")).c_str(), O_CREAT | O_RDWR, 0644);
       ASSERT_GE(lock, 0);
@@ -63,11 +71,7 @@ class SynthRenderTest : public ::testing::Test {
             fs::remove_all(entry.path(), ignored);
           }
         }
-        SynthOptions options = SynthOptions::ForSize("tiny");
-        options.preset = "spot";
-        options.seed = 7;
-        options.out = capture_->string();
-        summary_ = new SynthSummary(RunSynthImpl(options));
+        summary_ = new SynthSummary(RunSynthImpl(TinySpotSeed7(*capture_)));
       } else {
         summary_ = new SynthSummary();
       }
@@ -296,11 +300,8 @@ TEST_F(SynthRenderTest, MattesAgreeWithMeshProjection) {
 }
 
 TEST_F(SynthRenderTest, TruthIsDeterministicForASeed) {
-  SynthOptions options = SynthOptions::ForSize("tiny");
-  options.preset = "spot";
-  options.seed = 7;
+  SynthOptions options = TinySpotSeed7(*root_ / "again");
   options.truth_only = true;
-  options.out = (*root_ / "again").string();
   RunSynthImpl(options);
   nlohmann::json again = ReadJsonFile(options.out + "/truth.json", kTruthKind, kTruthVersion);
   nlohmann::json first = *truth_;
@@ -388,11 +389,8 @@ TEST_F(SynthRenderTest, EvalSetIsComplete) {
 // 7): same truth plan, and bit-equal pixels because every image has its own
 // seed stream. No videos or mattes are written.
 TEST_F(SynthRenderTest, EvalOnlyEqualsTheFullRunsEvalSet) {
-  SynthOptions options = SynthOptions::ForSize("tiny");
-  options.preset = "spot";
-  options.seed = 7;
+  SynthOptions options = TinySpotSeed7(*root_ / "eval_only");
   options.eval_only = true;
-  options.out = (*root_ / "eval_only").string();
   const SynthSummary summary = RunSynthImpl(options);
   const fs::path out(options.out);
   EXPECT_EQ(summary.frames_rendered, 0);
