@@ -15,6 +15,7 @@
 #include "core/median.h"
 #include "core/progress.h"
 #include "core/render/scene.h"
+#include "core/run_record.h"
 
 namespace relit::reconstruct {
 
@@ -56,12 +57,6 @@ struct Observation {
   int texel;
   Eigen::Vector3f irradiance_direction;  // l / r^2
   float intensity;
-};
-
-// Per texel: the proxy's shading normal summed over every hit (lit or not).
-struct TexelNormals {
-  std::vector<Eigen::Vector3f> sum;
-  explicit TexelNormals(int texels) : sum(static_cast<size_t>(texels), Eigen::Vector3f::Zero()) {}
 };
 
 int TexelOf(const render::Vec2f& uv, int resolution) {
@@ -203,9 +198,10 @@ Image EstimateNormalMap(const std::string& workspace, const CamerasFile& cameras
       progress.Advance();
     });
   }
-  TexelNormals proxy_normals(texels);
+  // Per texel: the proxy's shading normal summed over every hit (lit or not).
+  std::vector<Eigen::Vector3f> proxy_normal_sum(static_cast<size_t>(texels), Eigen::Vector3f::Zero());
   for (const auto& frame_normals : normals_per_frame) {
-    for (const auto& [texel, n] : frame_normals) proxy_normals.sum[texel] += n;
+    for (const auto& [texel, n] : frame_normals) proxy_normal_sum[texel] += n;
   }
   // Group the observations by texel (counting sort).
   std::vector<int> offsets(static_cast<size_t>(texels) + 1, 0);
@@ -222,7 +218,7 @@ Image EstimateNormalMap(const std::string& workspace, const CamerasFile& cameras
   Image map(resolution, resolution, 3);
   std::vector<double> changes_deg(static_cast<size_t>(texels), -1.0);
   tbb::parallel_for(0, texels, [&](int t) {
-    const Eigen::Vector3f sum = proxy_normals.sum[t];
+    const Eigen::Vector3f sum = proxy_normal_sum[t];
     if (sum.norm() <= 0) return;  // never seen: zero, the renderer keeps the mesh normal
     const Eigen::Vector3f proxy_normal = sum.normalized();
     Eigen::Vector3f n = proxy_normal;
@@ -239,7 +235,7 @@ Image EstimateNormalMap(const std::string& workspace, const CamerasFile& cameras
   s.observations = static_cast<long long>(sorted.size());
   std::vector<double> changes;
   for (int t = 0; t < texels; ++t) {
-    if (proxy_normals.sum[t].norm() > 0) ++s.texels_seen;
+    if (proxy_normal_sum[t].norm() > 0) ++s.texels_seen;
     if (changes_deg[t] >= 0) changes.push_back(changes_deg[t]);
   }
   s.texels_estimated = static_cast<int>(changes.size());
@@ -248,7 +244,7 @@ Image EstimateNormalMap(const std::string& workspace, const CamerasFile& cameras
     s.median_change_deg = changes[changes.size() / 2];
     s.p90_change_deg = changes[changes.size() * 9 / 10];
   }
-  s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  s.seconds = SecondsSince(start);
   spdlog::info("normal map: {} frames, {} observations, {} of {} seen texels estimated, change from the proxy "
                "median {:.1f} deg (p90 {:.1f}) in {:.1f} s",
                s.frames, s.observations, s.texels_estimated, s.texels_seen, s.median_change_deg, s.p90_change_deg,
