@@ -7,98 +7,73 @@
 
 namespace relit::calib {
 
-const OptionFields<DetectOptions>& DetectOptions::Fields() {
-  using S = DetectOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("apriltag", &S::apriltag, {"off", "second_pass", "always"},
-               "libapriltag: on frames where OpenCV finds few markers (second_pass) or on all (AprilTag boards only)")
-          .Add("apriltag_below_fraction", &S::apriltag_below_fraction, 0.0, 1.0,
-               "second_pass runs when OpenCV finds fewer than this share of the board's markers")
-          .Add("subpix_half_window_px", &S::subpix_half_window_px, 1, 20, "cornerSubPix half window on ChArUco corners")
-          .Add("min_corners", &S::min_corners, 4, 10000, "fewer corners: the frame gets no board pose")
-          .Add("min_adjacent_markers", &S::min_adjacent_markers, 1, 2,
-               "found neighbouring markers a corner needs (1: also corners next to one marker, checked in the image)")
-          .Add("single_marker_min_contrast", &S::single_marker_min_contrast, 0.0, 255.0,
-               "grey-level contrast a corner next to a single marker must show")
-          .Add("threads", &S::threads, 0, 1024, "0 = all cores");
-  return fields;
-}
+RELIT_OPTION_FIELDS(DetectOptions,
+    .Add("apriltag", &S::apriltag, {"off", "second_pass", "always"},
+         "libapriltag: on frames where OpenCV finds few markers (second_pass) or on all (AprilTag boards only)")
+    .Add("apriltag_below_fraction", &S::apriltag_below_fraction, 0.0, 1.0,
+         "second_pass runs when OpenCV finds fewer than this share of the board's markers")
+    .Add("subpix_half_window_px", &S::subpix_half_window_px, 1, 20, "cornerSubPix half window on ChArUco corners")
+    .Add("min_corners", &S::min_corners, 4, 10000, "fewer corners: the frame gets no board pose")
+    .Add("min_adjacent_markers", &S::min_adjacent_markers, 1, 2,
+         "found neighbouring markers a corner needs (1: also corners next to one marker, checked in the image)")
+    .Add("single_marker_min_contrast", &S::single_marker_min_contrast, 0.0, 255.0,
+         "grey-level contrast a corner next to a single marker must show")
+    .Add("threads", &S::threads, 0, 1024, "0 = all cores"))
 
-const OptionFields<IntrinsicsOptions>& IntrinsicsOptions::Fields() {
-  using S = IntrinsicsOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("refine_k3", &S::refine_k3, "refine k3 (poorly constrained on phones)")
-          .Add("square_pixels", &S::square_pixels, "fx = fy")
-          .Add("refine_tangential", &S::refine_tangential, "refine p1, p2 (they trade off with the principal point)")
-          .Add("view_board_images", &S::view_board_images,
-               "folder of phone V board-clip frames: its lens is calibrated once and kept fixed (pipeline: inputs)")
-          .Add("light_board_images", &S::light_board_images, "the same for phone L (pipeline: inputs)");
-  return fields;
-}
+RELIT_OPTION_FIELDS(IntrinsicsOptions,
+    .Add("refine_k3", &S::refine_k3, "refine k3 (poorly constrained on phones)")
+    .Add("square_pixels", &S::square_pixels, "fx = fy")
+    .Add("refine_tangential", &S::refine_tangential, "refine p1, p2 (they trade off with the principal point)")
+    .Add("view_board_images", &S::view_board_images,
+         "folder of phone V board-clip frames: its lens is calibrated once and kept fixed (pipeline: inputs)")
+    .Add("light_board_images", &S::light_board_images, "the same for phone L (pipeline: inputs)"))
 
-const OptionFields<SfmOptions>& SfmOptions::Fields() {
-  using S = SfmOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("enabled", &S::enabled, "false: board poses only (no COLMAP)")
-          .Add("mode", &S::mode, {"incremental", "board_seeded"},
-               "COLMAP's incremental mapper, or frames seeded with their board poses (faster, less accurate)")
-          .Add("seed_min_corners", &S::seed_min_corners, 4, 10000, "board corners a frame needs to seed the model")
-          .Add("max_features", &S::max_features, 100, 100000, "SIFT features per image")
-          .Add("colmap", &S::colmap, "the COLMAP executable")
-          .Add("sequential_overlap", &S::sequential_overlap, 1, 1000,
-               "neighbours matched in each phone's frame order (incremental)")
-          .Add("seeded_overlap", &S::seeded_overlap, 1, 1000, "the same for board_seeded")
-          .Add("ransac_trials", &S::ransac_trials, 10, 1000000, "geometric verification trials per image pair")
-          .Add("cross_pair_max_angle_deg", &S::cross_pair_max_angle_deg, 0.0, 180.0,
-               "V/L frame pairs matched across phones within this angle")
-          .Add("cross_pairs_per_frame", &S::cross_pairs_per_frame, 0, 1000, "cross-phone pairs per frame")
-          .Add("min_registered", &S::min_registered, 2, 100000, "fewer registered images: SfM failed")
-          .Add("align_inlier_m", &S::align_inlier_m, 1e-5, 10.0, "camera-centre distance for the similarity RANSAC")
-          .Add("point_weight", &S::point_weight, 0.0, 100.0, "SfM point residuals relative to board corners")
-          .Add("threads", &S::threads, 0, 1024, "0 = all cores")
-          .Add("reuse_dir", &S::reuse_dir,
-               "a copy of a previous run's calib/sfm folder: its COLMAP model is read, no COLMAP step runs "
-               "(benchmarks of the refinement; same capture only)");
-  return fields;
-}
+RELIT_OPTION_FIELDS(SfmOptions,
+    .Add("enabled", &S::enabled, "false: board poses only (no COLMAP)")
+    .Add("mode", &S::mode, {"incremental", "board_seeded"},
+         "COLMAP's incremental mapper, or frames seeded with their board poses (faster, less accurate)")
+    .Add("seed_min_corners", &S::seed_min_corners, 4, 10000, "board corners a frame needs to seed the model")
+    .Add("max_features", &S::max_features, 100, 100000, "SIFT features per image")
+    .Add("colmap", &S::colmap, "the COLMAP executable")
+    .Add("sequential_overlap", &S::sequential_overlap, 1, 1000,
+         "neighbours matched in each phone's frame order (incremental)")
+    .Add("seeded_overlap", &S::seeded_overlap, 1, 1000, "the same for board_seeded")
+    .Add("ransac_trials", &S::ransac_trials, 10, 1000000, "geometric verification trials per image pair")
+    .Add("cross_pair_max_angle_deg", &S::cross_pair_max_angle_deg, 0.0, 180.0,
+         "V/L frame pairs matched across phones within this angle")
+    .Add("cross_pairs_per_frame", &S::cross_pairs_per_frame, 0, 1000, "cross-phone pairs per frame")
+    .Add("min_registered", &S::min_registered, 2, 100000, "fewer registered images: SfM failed")
+    .Add("align_inlier_m", &S::align_inlier_m, 1e-5, 10.0, "camera-centre distance for the similarity RANSAC")
+    .Add("point_weight", &S::point_weight, 0.0, 100.0, "SfM point residuals relative to board corners")
+    .Add("threads", &S::threads, 0, 1024, "0 = all cores")
+    .Add("reuse_dir", &S::reuse_dir,
+         "a copy of a previous run's calib/sfm folder: its COLMAP model is read, no COLMAP step runs "
+         "(benchmarks of the refinement; same capture only)"))
 
 void SfmOptions::Check() const {
   RELIT_REQUIRE(!colmap.empty(), "colmap (the COLMAP executable) must not be empty");
 }
 
-const OptionFields<RefineOptions>& RefineOptions::Fields() {
-  using S = RefineOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("huber_px", &S::huber_px, 1e-3, 100.0, "robust loss scale")
-          .Add("outlier_px", &S::outlier_px, 0.1, 1000.0, "observations beyond this are dropped, then solved again")
-          .Add("final_huber_px", &S::final_huber_px, 0.0, 1000.0,
-               "robust loss scale of that second solve (0: huber_px)")
-          .Add("max_iterations", &S::max_iterations, 1, 100000, "Ceres iterations")
-          .Add("linear_solver", &S::linear_solver, {"auto", "dense_schur", "sparse_schur", "iterative_schur"},
-               "Ceres linear solver (auto: dense Schur up to dense_schur_max_frames frames)")
-          .Add("dense_schur_max_frames", &S::dense_schur_max_frames, 0, 1000000, "auto's switch to sparse Schur")
-          .Add("function_tolerance", &S::function_tolerance, 1e-16, 0.1,
-               "Ceres stops when the cost changes by less than this fraction")
-          .Add("first_function_tolerance", &S::first_function_tolerance, 0.0, 0.1,
-               "the same for the first solve, before outliers are dropped (0: function_tolerance)")
-          .Add("max_corner_rms_px", &S::max_corner_rms_px, 0.01, 1000.0, "board-corner RMS above this: rejected")
-          .Add("max_ratio_error", &S::max_ratio_error, 0.001, 1.0,
-               "|measured / specified marker-to-square ratio - 1| above this: rejected");
-  return fields;
-}
+RELIT_OPTION_FIELDS(RefineOptions,
+    .Add("huber_px", &S::huber_px, 1e-3, 100.0, "robust loss scale")
+    .Add("outlier_px", &S::outlier_px, 0.1, 1000.0, "observations beyond this are dropped, then solved again")
+    .Add("final_huber_px", &S::final_huber_px, 0.0, 1000.0,
+         "robust loss scale of that second solve (0: huber_px)")
+    .Add("max_iterations", &S::max_iterations, 1, 100000, "Ceres iterations")
+    .Add("linear_solver", &S::linear_solver, {"auto", "dense_schur", "sparse_schur", "iterative_schur"},
+         "Ceres linear solver (auto: dense Schur up to dense_schur_max_frames frames)")
+    .Add("dense_schur_max_frames", &S::dense_schur_max_frames, 0, 1000000, "auto's switch to sparse Schur")
+    .Add("function_tolerance", &S::function_tolerance, 1e-16, 0.1,
+         "Ceres stops when the cost changes by less than this fraction")
+    .Add("first_function_tolerance", &S::first_function_tolerance, 0.0, 0.1,
+         "the same for the first solve, before outliers are dropped (0: function_tolerance)")
+    .Add("max_corner_rms_px", &S::max_corner_rms_px, 0.01, 1000.0, "board-corner RMS above this: rejected")
+    .Add("max_ratio_error", &S::max_ratio_error, 0.001, 1.0,
+         "|measured / specified marker-to-square ratio - 1| above this: rejected"))
 
-const OptionFields<LightOptions>& LightOptions::Fields() {
-  using S = LightOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("flash_offset_m", &S::flash_offset_m, "flash position [x, y, z] in phone L's camera frame, metres")
-          .Add("max_gap_s", &S::max_gap_s, 1e-6, 10.0, "nearest registered phone L frame further: unreliable");
-  return fields;
-}
+RELIT_OPTION_FIELDS(LightOptions,
+    .Add("flash_offset_m", &S::flash_offset_m, "flash position [x, y, z] in phone L's camera frame, metres")
+    .Add("max_gap_s", &S::max_gap_s, 1e-6, 10.0, "nearest registered phone L frame further: unreliable"))
 
 void LightOptions::Check() const {
   RELIT_REQUIRE(flash_offset_m.size() == 3, "flash_offset_m must be [x, y, z] in metres, got ",
@@ -108,29 +83,21 @@ void LightOptions::Check() const {
   }
 }
 
-const OptionFields<UndistortOptions>& UndistortOptions::Fields() {
-  static const auto fields =
-      OptionFields<UndistortOptions>()
-          .Add("alpha", &UndistortOptions::alpha, 0.0, 1.0,
-               "0: only valid pixels (crops), 1: every source pixel (black borders)")
-          .Add("write_images", &UndistortOptions::write_images, "write the undistorted frames");
-  return fields;
-}
+RELIT_OPTION_FIELDS(UndistortOptions,
+    .Add("alpha", &S::alpha, 0.0, 1.0,
+         "0: only valid pixels (crops), 1: every source pixel (black borders)")
+    .Add("write_images", &S::write_images, "write the undistorted frames"))
 
-const OptionFields<CalibOptions>& CalibOptions::Fields() {
-  using S = CalibOptions;
-  static const auto fields = OptionFields<S>()
-                                 .Add("workspace", &S::workspace, "W: reads W/capture, writes W/calib (`--workspace`)")
-                                 .Section("board", &S::board)
-                                 .Section("detect", &S::detect)
-                                 .Section("intrinsics", &S::intrinsics)
-                                 .Section("sfm", &S::sfm)
-                                 .Section("refine", &S::refine)
-                                 .Section("light", &S::light)
-                                 .Section("undistort", &S::undistort)
-                                 .Add("log_level", &S::log_level, LogLevelNames(), "what the stage prints (`--log-level`)");
-  return fields;
-}
+RELIT_OPTION_FIELDS(CalibOptions,
+    .Add("workspace", &S::workspace, "W: reads W/capture, writes W/calib (`--workspace`)")
+    .Section("board", &S::board)
+    .Section("detect", &S::detect)
+    .Section("intrinsics", &S::intrinsics)
+    .Section("sfm", &S::sfm)
+    .Section("refine", &S::refine)
+    .Section("light", &S::light)
+    .Section("undistort", &S::undistort)
+    .Add("log_level", &S::log_level, LogLevelNames(), "what the stage prints (`--log-level`)"))
 
 void CalibOptions::Check() const {
   RELIT_REQUIRE(!workspace.empty(), "no workspace: pass --workspace W (reads W/capture, writes W/calib)");

@@ -6,18 +6,14 @@
 
 namespace relit {
 
-const OptionFields<BoardSpec>& BoardSpec::Fields() {
-  static const auto fields =
-      OptionFields<BoardSpec>()
-          .Add("squares_x", &BoardSpec::squares_x, 3, 100, "squares along the printed rows")
-          .Add("squares_y", &BoardSpec::squares_y, 3, 100,
-               "squares down the printed image; odd (OpenCV 4.6 changed the layout for even rows)")
-          .Add("square_length_m", &BoardSpec::square_length_m, 1e-4, 1.0, "printed square side, metres (measure it)")
-          .Add("marker_length_m", &BoardSpec::marker_length_m, 1e-4, 1.0,
-               "printed marker side, metres; smaller than the square")
-          .Add("dictionary", &BoardSpec::dictionary, DictionaryNames(), "the markers' dictionary");
-  return fields;
-}
+RELIT_OPTION_FIELDS(BoardSpec,
+    .Add("squares_x", &S::squares_x, 3, 100, "squares along the printed rows")
+    .Add("squares_y", &S::squares_y, 3, 100,
+         "squares down the printed image; odd (OpenCV 4.6 changed the layout for even rows)")
+    .Add("square_length_m", &S::square_length_m, 1e-4, 1.0, "printed square side, metres (measure it)")
+    .Add("marker_length_m", &S::marker_length_m, 1e-4, 1.0,
+         "printed marker side, metres; smaller than the square")
+    .Add("dictionary", &S::dictionary, DictionaryNames(), "the markers' dictionary"))
 
 void BoardSpec::Check() const {
   RELIT_REQUIRE(squares_y % 2 == 1,

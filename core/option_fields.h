@@ -14,12 +14,9 @@
 //     static const OptionFields<SyncOptions>& Fields();
 //     void Check() const;             // optional: checks across fields only
 //   };
-//   const OptionFields<SyncOptions>& SyncOptions::Fields() {
-//     static const auto fields = OptionFields<SyncOptions>()
-//         .Add("sample_rate_hz", &SyncOptions::sample_rate_hz, 1000, 96000,
-//              "both tracks are resampled to this rate");
-//     return fields;
-//   }
+//   RELIT_OPTION_FIELDS(SyncOptions,  // in the .cc: defines SyncOptions::Fields()
+//       .Add("sample_rate_hz", &S::sample_rate_hz, 1000, 96000,
+//            "both tracks are resampled to this rate"))
 //
 #pragma once
 
@@ -319,6 +316,17 @@ class OptionFields {
   std::function<void(OptionsReader&, S*)> on_read_;
   std::function<void(const S&, nlohmann::json*)> on_to_json_;
 };
+
+// Defines Struct::Fields(), declared in Struct as
+//   static const OptionFields<Struct>& Fields();
+// as the table its rows (.Add(...), .Section(...), .Moved(...), ...) build,
+// once, on first use. In the rows, S names Struct.
+#define RELIT_OPTION_FIELDS(Struct, ...)                                                    \
+  const ::relit::OptionFields<Struct>& Struct::Fields() {                                   \
+    using S = Struct;                                                                       \
+    static const ::relit::OptionFields<S> fields = ::relit::OptionFields<S>() __VA_ARGS__;  \
+    return fields;                                                                          \
+  }
 
 // The generic operations, for a struct with a static Fields().
 template <typename S>

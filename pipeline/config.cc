@@ -32,33 +32,24 @@ const YAML::Node Section(const YAML::Node& root, const std::string& key) {
 
 }  // namespace
 
-const OptionFields<SlurmResources>& SlurmResources::Fields() {
-  using S = SlurmResources;
-  static const auto fields = OptionFields<S>()
-                                 .Add("partition", &S::partition, "`--partition` (\"\" = the cluster's default)")
-                                 .Add("account", &S::account, "`--account` (\"\" = none)")
-                                 .Add("cpus", &S::cpus, 1, 100000, "`--cpus-per-task`")
-                                 .Add("memory", &S::memory, "`--mem`")
-                                 .Add("gpus", &S::gpus, 0, 1024, "`--gres gpu:N` when above 0")
-                                 .Add("time", &S::time, "`--time`")
-                                 .Add("extra_args", &S::extra_args, "appended to sbatch as given");
-  return fields;
-}
+RELIT_OPTION_FIELDS(SlurmResources,
+    .Add("partition", &S::partition, "`--partition` (\"\" = the cluster's default)")
+    .Add("account", &S::account, "`--account` (\"\" = none)")
+    .Add("cpus", &S::cpus, 1, 100000, "`--cpus-per-task`")
+    .Add("memory", &S::memory, "`--mem`")
+    .Add("gpus", &S::gpus, 0, 1024, "`--gres gpu:N` when above 0")
+    .Add("time", &S::time, "`--time`")
+    .Add("extra_args", &S::extra_args, "appended to sbatch as given"))
 
-const OptionFields<SlurmOptions>& SlurmOptions::Fields() {
-  using S = SlurmOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("steps", &S::steps, StepKinds(), "step kinds submitted with sbatch; the others run on this host")
-          .Add("poll_s", &S::poll_s, 0.05, 3600.0, "squeue polling interval, seconds")
-          .Add("sbatch", &S::sbatch, "the sbatch command (e.g. a full path)")
-          .Add("squeue", &S::squeue, "the squeue command")
-          .Add("scontrol", &S::scontrol, "the scontrol command")
-          .Add("sacct", &S::sacct, "the sacct command")
-          .Add("scancel", &S::scancel, "the scancel command")
-          .Section("resources", &S::defaults);
-  return fields;
-}
+RELIT_OPTION_FIELDS(SlurmOptions,
+    .Add("steps", &S::steps, StepKinds(), "step kinds submitted with sbatch; the others run on this host")
+    .Add("poll_s", &S::poll_s, 0.05, 3600.0, "squeue polling interval, seconds")
+    .Add("sbatch", &S::sbatch, "the sbatch command (e.g. a full path)")
+    .Add("squeue", &S::squeue, "the squeue command")
+    .Add("scontrol", &S::scontrol, "the scontrol command")
+    .Add("sacct", &S::sacct, "the sacct command")
+    .Add("scancel", &S::scancel, "the scancel command")
+    .Section("resources", &S::defaults))
 
 void SlurmOptions::Read(OptionsReader& r) {
   for (const std::string& kind : StepKinds()) r.Ignore(kind);  // read below, over the defaults
@@ -77,36 +68,26 @@ const SlurmResources& SlurmOptions::For(const std::string& kind) const {
   return it == per_kind.end() ? defaults : it->second;
 }
 
-const OptionFields<PipelineInputs>& PipelineInputs::Fields() {
-  using S = PipelineInputs;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("view", &S::view, "required: phone V video (filmed without flash: the camera)")
-          .Add("light", &S::light, "required: phone L video (filmed with its flash on: the moving light)")
-          .Add("geometry", &S::geometry, "geometry-pass video or folder of photos (`relit-capture --geometry`)")
-          .Add("board_view_images", &S::board_view_images,
-               "folder of phone V board-clip frames (PNG/JPEG at the capture resolution): its lens is calibrated "
-               "once and kept fixed (docs/calib.md)")
-          .Add("board_light_images", &S::board_light_images, "the same for phone L")
-          .Add("proxy_mesh", &S::proxy_mesh,
-               "a proxy mesh (OBJ/PLY, board frame, metres) passed to `relit-reconstruct --mesh` instead of its own")
-          .Add("truth", &S::truth,
-               "`truth.json` of a synthetic capture (relit-synth): adds the `eval` step (held-out views x lights)");
-  return fields;
-}
+RELIT_OPTION_FIELDS(PipelineInputs,
+    .Add("view", &S::view, "required: phone V video (filmed without flash: the camera)")
+    .Add("light", &S::light, "required: phone L video (filmed with its flash on: the moving light)")
+    .Add("geometry", &S::geometry, "geometry-pass video or folder of photos (`relit-capture --geometry`)")
+    .Add("board_view_images", &S::board_view_images,
+         "folder of phone V board-clip frames (PNG/JPEG at the capture resolution): its lens is calibrated "
+         "once and kept fixed (docs/calib.md)")
+    .Add("board_light_images", &S::board_light_images, "the same for phone L")
+    .Add("proxy_mesh", &S::proxy_mesh,
+         "a proxy mesh (OBJ/PLY, board frame, metres) passed to `relit-reconstruct --mesh` instead of its own")
+    .Add("truth", &S::truth,
+         "`truth.json` of a synthetic capture (relit-synth): adds the `eval` step (held-out views x lights)"))
 
-const OptionFields<RunSettings>& RunSettings::Fields() {
-  using S = RunSettings;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("jobs", &S::jobs, 1, 1024,
-               "steps run locally at once; only the partitions' training steps are independent and each uses "
-               "every core, so more than one job pays only with many cores (or GPUs)")
-          .Add("executor", &S::executor, {"local", "slurm"}, "where the steps run (`slurm:` below)")
-          .Add("export", &S::export_mode, {"auto", "on", "off"},
-               "whether the pipeline has the export step (auto: when `relit-relight --help` lists it)");
-  return fields;
-}
+RELIT_OPTION_FIELDS(RunSettings,
+    .Add("jobs", &S::jobs, 1, 1024,
+         "steps run locally at once; only the partitions' training steps are independent and each uses "
+         "every core, so more than one job pays only with many cores (or GPUs)")
+    .Add("executor", &S::executor, {"local", "slurm"}, "where the steps run (`slurm:` below)")
+    .Add("export", &S::export_mode, {"auto", "on", "off"},
+         "whether the pipeline has the export step (auto: when `relit-relight --help` lists it)"))
 
 const std::map<std::string, std::string>& StageExecutables() {
   static const std::map<std::string, std::string> kExecutables = {

@@ -21,23 +21,18 @@ namespace relit::reconstruct {
 
 namespace fs = std::filesystem;
 
-const OptionFields<NormalMapOptions>& NormalMapOptions::Fields() {
-  using S = NormalMapOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("enabled", &S::enabled, "estimate the normal map (needs the flash positions, W/calib/lights.json)")
-          .Add("resolution_px", &S::resolution_px, 16, 4096, "normal map texels per side")
-          .Add("min_observations", &S::min_observations, 4, 100000,
-               "lit observations a texel needs; fewer: the proxy's normal stays")
-          .Add("prior_weight", &S::prior_weight, 0.0, 1000.0,
-               "pull towards the proxy's normal, in units of the texel's own data weight")
-          .Add("max_angle_deg", &S::max_angle_deg, 0.0, 90.0, "largest turn away from the proxy's normal")
-          .Add("min_light_cosine", &S::min_light_cosine, 0.0, 1.0,
-               "observations lit more grazingly on the proxy are dropped")
-          .Add("saturation_level", &S::saturation_level, 0.0, 1e6, "linear level at which a pixel counts as clipped")
-          .Add("robust_rounds", &S::robust_rounds, 0, 20, "Huber re-weighting rounds");
-  return fields;
-}
+RELIT_OPTION_FIELDS(NormalMapOptions,
+    .Add("enabled", &S::enabled, "estimate the normal map (needs the flash positions, W/calib/lights.json)")
+    .Add("resolution_px", &S::resolution_px, 16, 4096, "normal map texels per side")
+    .Add("min_observations", &S::min_observations, 4, 100000,
+         "lit observations a texel needs; fewer: the proxy's normal stays")
+    .Add("prior_weight", &S::prior_weight, 0.0, 1000.0,
+         "pull towards the proxy's normal, in units of the texel's own data weight")
+    .Add("max_angle_deg", &S::max_angle_deg, 0.0, 90.0, "largest turn away from the proxy's normal")
+    .Add("min_light_cosine", &S::min_light_cosine, 0.0, 1.0,
+         "observations lit more grazingly on the proxy are dropped")
+    .Add("saturation_level", &S::saturation_level, 0.0, 1e6, "linear level at which a pixel counts as clipped")
+    .Add("robust_rounds", &S::robust_rounds, 0, 20, "Huber re-weighting rounds"))
 
 nlohmann::json NormalMapStats::ToJson() const {
   return {{"frames", frames},

@@ -73,30 +73,25 @@ double ResolveSaturationLevel(double level, const std::string& capture_transfer)
   return capture_transfer == "srgb" || capture_transfer == "gamma2.2" ? CueFitOptions::kSdrSaturationLevel : 0.0;
 }
 
-const OptionFields<CueFitOptions>& CueFitOptions::Fields() {
-  using S = CueFitOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("smoothness_diffuse", &S::smoothness_diffuse, 0.0, 1e6, "neighbour coupling of the Lambert weight")
-          .Add("smoothness_specular", &S::smoothness_specular, 0.0, 1e6, "neighbour coupling of the 4 GGX weights")
-          .Add("ridge", &S::ridge, 1e-9, 1e6, "pull towards the global fit (pixels' worth)")
-          .Add("iterations_per_level", &S::iterations_per_level, 1, 100000, "conjugate-gradient iterations per level")
-          .Add("tolerance", &S::tolerance, 0.0, 1.0, "relative residual that ends a level early")
-          .Add("coarse_levels", &S::coarse_levels, 0, 8, "coarser levels solved first (each half the size)")
-          .Add("max_pixels", &S::max_pixels, int64_t{1000}, int64_t{1} << 40,
-               "training pixels kept (evenly strided beyond)")
-          .Add("saturation_level", &S::saturation_level, kAutoSaturationLevel, 1e9,
-               "a training pixel's channel at or above this linear level was clipped by the video: the fit (and the "
-               "training loss) only asks the prediction to be at least its value; -1 (auto) = 0.9 for SDR video "
-               "(capture.json transfer srgb / gamma2.2), else 0; 0 = every pixel an equality")
-          .Add("saturation_rounds", &S::saturation_rounds, 0, 100,
-               "active-set rounds for the clipped channels (each a solve at the final level)")
-          .Add("align_rounds", &S::align_rounds, 0, 20,
-               "> 0: after each solve, shift every frame's image and matte by the sub-pixel translation that best "
-               "matches the fit, then solve again")
-          .Add("max_shift_px", &S::max_shift_px, 0.0, 100.0, "largest alignment shift");
-  return fields;
-}
+RELIT_OPTION_FIELDS(CueFitOptions,
+    .Add("smoothness_diffuse", &S::smoothness_diffuse, 0.0, 1e6, "neighbour coupling of the Lambert weight")
+    .Add("smoothness_specular", &S::smoothness_specular, 0.0, 1e6, "neighbour coupling of the 4 GGX weights")
+    .Add("ridge", &S::ridge, 1e-9, 1e6, "pull towards the global fit (pixels' worth)")
+    .Add("iterations_per_level", &S::iterations_per_level, 1, 100000, "conjugate-gradient iterations per level")
+    .Add("tolerance", &S::tolerance, 0.0, 1.0, "relative residual that ends a level early")
+    .Add("coarse_levels", &S::coarse_levels, 0, 8, "coarser levels solved first (each half the size)")
+    .Add("max_pixels", &S::max_pixels, int64_t{1000}, int64_t{1} << 40,
+         "training pixels kept (evenly strided beyond)")
+    .Add("saturation_level", &S::saturation_level, kAutoSaturationLevel, 1e9,
+         "a training pixel's channel at or above this linear level was clipped by the video: the fit (and the "
+         "training loss) only asks the prediction to be at least its value; -1 (auto) = 0.9 for SDR video "
+         "(capture.json transfer srgb / gamma2.2), else 0; 0 = every pixel an equality")
+    .Add("saturation_rounds", &S::saturation_rounds, 0, 100,
+         "active-set rounds for the clipped channels (each a solve at the final level)")
+    .Add("align_rounds", &S::align_rounds, 0, 20,
+         "> 0: after each solve, shift every frame's image and matte by the sub-pixel translation that best "
+         "matches the fit, then solve again")
+    .Add("max_shift_px", &S::max_shift_px, 0.0, 100.0, "largest alignment shift"))
 
 void CueFitOptions::Check() const {
   RELIT_REQUIRE(saturation_level >= 0 || saturation_level == kAutoSaturationLevel,

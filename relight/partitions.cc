@@ -100,23 +100,18 @@ PartitionLayoutOptions PartitionLayoutOptionsFromJson(const nlohmann::json& j, c
   return options;
 }
 
-const OptionFields<PartitionLayoutOptions>& PartitionLayoutOptions::Fields() {
-  using S = PartitionLayoutOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("layout", &S::layout, {"dnl13", "single", "custom"},
-               "dnl13: 13 vertices, 18 triangles, as in DNL; single: one partition holding every frame; custom: "
-               "the vertices below")
-          .Add("elevation_deg", &S::elevation_deg, "custom only: the vertices' elevations, in [-90, 90]")
-          .Add("azimuth_deg", &S::azimuth_deg, "custom only: their azimuths, same length")
-          .OnToJson([](const S& s, nlohmann::json* json) {
-            if (s.layout != "custom") {
-              json->erase("elevation_deg");
-              json->erase("azimuth_deg");
-            }
-          });
-  return fields;
-}
+RELIT_OPTION_FIELDS(PartitionLayoutOptions,
+    .Add("layout", &S::layout, {"dnl13", "single", "custom"},
+         "dnl13: 13 vertices, 18 triangles, as in DNL; single: one partition holding every frame; custom: "
+         "the vertices below")
+    .Add("elevation_deg", &S::elevation_deg, "custom only: the vertices' elevations, in [-90, 90]")
+    .Add("azimuth_deg", &S::azimuth_deg, "custom only: their azimuths, same length")
+    .OnToJson([](const S& s, nlohmann::json* json) {
+      if (s.layout != "custom") {
+        json->erase("elevation_deg");
+        json->erase("azimuth_deg");
+      }
+    }))
 
 void PartitionLayoutOptions::Check() const {
   if (layout != "custom") {

@@ -38,16 +38,12 @@ int NeuralTextureOptions::levels() const {
   return mip_levels == 0 ? full : std::min(mip_levels, full);
 }
 
-const OptionFields<NeuralTextureOptions>& NeuralTextureOptions::Fields() {
-  using S = NeuralTextureOptions;
-  static const auto fields = OptionFields<S>()
-                                 .Add("resolution_px", &S::resolution_px, 1, 8192, "level 0 size; a power of two")
-                                 .Add("channels_per_basis", &S::channels_per_basis, 1, 64, "C")
-                                 .Add("mip_levels", &S::mip_levels, 0, 14, "0 = full chain")
-                                 .Add("init_min", &S::init_min, "initial texels uniform in [init_min, init_max]")
-                                 .Add("init_max", &S::init_max, "see init_min");
-  return fields;
-}
+RELIT_OPTION_FIELDS(NeuralTextureOptions,
+    .Add("resolution_px", &S::resolution_px, 1, 8192, "level 0 size; a power of two")
+    .Add("channels_per_basis", &S::channels_per_basis, 1, 64, "C")
+    .Add("mip_levels", &S::mip_levels, 0, 14, "0 = full chain")
+    .Add("init_min", &S::init_min, "initial texels uniform in [init_min, init_max]")
+    .Add("init_max", &S::init_max, "see init_min"))
 
 void NeuralTextureOptions::Check() const {
   RELIT_REQUIRE((resolution_px & (resolution_px - 1)) == 0,
@@ -109,40 +105,35 @@ GeneratorOptions ModelOptions::MaskOptions() const {
   return g;
 }
 
-const OptionFields<ModelOptions>& ModelOptions::Fields() {
-  using S = ModelOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("variant", &S::variant, {"residual", "dnl"},
-               "residual: cue regression + corrections; dnl: Deferred Neural Lighting's networks (\"Model variants\")")
-          .Add("cue_fit", &S::cue_fit, {"smooth", "per_texel"},
-               "the residual variant's regression: bilinear (\"Smooth cue fit\") or the cues-only baseline's "
-               "nearest-texel fit")
-          .Add("texture_resolution_px", &S::texture_resolution_px, 1, 8192,
-               "neural texture level 0 (and the residual variant's regression grid), a power of two")
-          .Add("object_window_margin_px", &S::object_window_margin_px, 0, 4096,
-               "the networks see the object's window plus this margin; 0 = random crops and whole frames, as DNL")
-          .Add("channels_per_basis", &S::channels_per_basis, 1, 64, "C; the texture has bases x C channels")
-          .Add("mip_levels", &S::mip_levels, 0, 14, "0 = full chain")
-          .Add("ngf", &S::ngf, 1, 512, "renderer width (DNL: 64)")
-          .Add("n_blocks", &S::n_blocks, 0, 64, "renderer residual blocks (DNL: 9)")
-          .Add("mask_ngf", &S::mask_ngf, 1, 512, "mask network width")
-          .Add("mask_n_blocks", &S::mask_n_blocks, 0, 64, "mask network residual blocks")
-          .Add("mask_band_px", &S::mask_band_px, 0, 4096,
-               "residual variant: the mask network corrects the coverage only within this many pixels of it; "
-               "alpha is 0 farther out (0 = everywhere, as checkpoints from before it)")
-          .Add("upsampling", &S::upsampling, {"transposed", "resize_conv"}, "the networks' upsampling")
-          .Add("norm", &S::norm, {"instance", "none"}, "both networks' normalisation (DNL: instance)")
-          .Add("input_skip", &S::input_skip,
-               "the renderer's last 7x7 conv also reads the network input (not in DNL; \"Learning check\")")
-          .Add("texture_init_spread", &S::texture_init_spread, 0.0, 1.0, "texels start uniform in [1 - s, 1 + s]")
-          .Add("max_radiance", &S::max_radiance, "M of the log encoding; 0 = set from the data")
-          .Add("device", &S::device, {"cpu", "cuda", "auto"}, "auto: cuda when available")
-          .OnToJson([](const S& s, nlohmann::json* json) {
-            if (!s.format.is_default()) json->update(s.format.ToJson());
-          });
-  return fields;
-}
+RELIT_OPTION_FIELDS(ModelOptions,
+    .Add("variant", &S::variant, {"residual", "dnl"},
+         "residual: cue regression + corrections; dnl: Deferred Neural Lighting's networks (\"Model variants\")")
+    .Add("cue_fit", &S::cue_fit, {"smooth", "per_texel"},
+         "the residual variant's regression: bilinear (\"Smooth cue fit\") or the cues-only baseline's "
+         "nearest-texel fit")
+    .Add("texture_resolution_px", &S::texture_resolution_px, 1, 8192,
+         "neural texture level 0 (and the residual variant's regression grid), a power of two")
+    .Add("object_window_margin_px", &S::object_window_margin_px, 0, 4096,
+         "the networks see the object's window plus this margin; 0 = random crops and whole frames, as DNL")
+    .Add("channels_per_basis", &S::channels_per_basis, 1, 64, "C; the texture has bases x C channels")
+    .Add("mip_levels", &S::mip_levels, 0, 14, "0 = full chain")
+    .Add("ngf", &S::ngf, 1, 512, "renderer width (DNL: 64)")
+    .Add("n_blocks", &S::n_blocks, 0, 64, "renderer residual blocks (DNL: 9)")
+    .Add("mask_ngf", &S::mask_ngf, 1, 512, "mask network width")
+    .Add("mask_n_blocks", &S::mask_n_blocks, 0, 64, "mask network residual blocks")
+    .Add("mask_band_px", &S::mask_band_px, 0, 4096,
+         "residual variant: the mask network corrects the coverage only within this many pixels of it; "
+         "alpha is 0 farther out (0 = everywhere, as checkpoints from before it)")
+    .Add("upsampling", &S::upsampling, {"transposed", "resize_conv"}, "the networks' upsampling")
+    .Add("norm", &S::norm, {"instance", "none"}, "both networks' normalisation (DNL: instance)")
+    .Add("input_skip", &S::input_skip,
+         "the renderer's last 7x7 conv also reads the network input (not in DNL; \"Learning check\")")
+    .Add("texture_init_spread", &S::texture_init_spread, 0.0, 1.0, "texels start uniform in [1 - s, 1 + s]")
+    .Add("max_radiance", &S::max_radiance, "M of the log encoding; 0 = set from the data")
+    .Add("device", &S::device, {"cpu", "cuda", "auto"}, "auto: cuda when available")
+    .OnToJson([](const S& s, nlohmann::json* json) {
+      if (!s.format.is_default()) json->update(s.format.ToJson());
+    }))
 
 void ModelOptions::Check() const {
   format.Check();
@@ -156,30 +147,25 @@ void ModelOptions::Check() const {
                 "it needs the default cues (no cues.input: sh, no other cues.bases); use model variant: dnl");
 }
 
-const OptionFields<TrainOptions>& TrainOptions::Fields() {
-  using S = TrainOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("learning_rate", &S::learning_rate, "the networks' Adam rate, in (0, 1)")
-          .Add("texture_learning_rate", &S::texture_learning_rate,
-               "the neural texture's Adam rate, in [0, 1); 0 = learning_rate")
-          .Add("regression_learning_rate", &S::regression_learning_rate,
-               "the residual variant's regression weights' Adam rate, in [0, 1); 0 = keep the least-squares fit")
-          .Section("cue_fit", &S::cue_fit)
-          .Add("beta1", &S::beta1, "Adam beta1, in [0, 1)")
-          .Add("beta2", &S::beta2, "Adam beta2, in [0, 1)")
-          .Add("batch_size", &S::batch_size, 1, 1024, "frames per step")
-          .Add("crop_px", &S::crop_px, 0, 8192,
-               "random square crops (only with model.object_window_margin_px: 0); 0 = whole frames, "
-               "else a multiple of 4 >= 8")
-          .Add("mask_loss_weight", &S::mask_loss_weight, "weight of the mask loss; >= 0")
-          .Add("matte_threshold", &S::matte_threshold, 0.0, 1.0,
-               "the captured frames' mattes are thresholded at this alpha for the loss weights and the mask's "
-               "target; 0 = soft mattes (\"Alpha\")")
-          .Add("seed", &S::seed, "model initialisation and crop positions")
-          .Add("threads", &S::threads, 1, 256, "torch intra-op threads");
-  return fields;
-}
+RELIT_OPTION_FIELDS(TrainOptions,
+    .Add("learning_rate", &S::learning_rate, "the networks' Adam rate, in (0, 1)")
+    .Add("texture_learning_rate", &S::texture_learning_rate,
+         "the neural texture's Adam rate, in [0, 1); 0 = learning_rate")
+    .Add("regression_learning_rate", &S::regression_learning_rate,
+         "the residual variant's regression weights' Adam rate, in [0, 1); 0 = keep the least-squares fit")
+    .Section("cue_fit", &S::cue_fit)
+    .Add("beta1", &S::beta1, "Adam beta1, in [0, 1)")
+    .Add("beta2", &S::beta2, "Adam beta2, in [0, 1)")
+    .Add("batch_size", &S::batch_size, 1, 1024, "frames per step")
+    .Add("crop_px", &S::crop_px, 0, 8192,
+         "random square crops (only with model.object_window_margin_px: 0); 0 = whole frames, "
+         "else a multiple of 4 >= 8")
+    .Add("mask_loss_weight", &S::mask_loss_weight, "weight of the mask loss; >= 0")
+    .Add("matte_threshold", &S::matte_threshold, 0.0, 1.0,
+         "the captured frames' mattes are thresholded at this alpha for the loss weights and the mask's "
+         "target; 0 = soft mattes (\"Alpha\")")
+    .Add("seed", &S::seed, "model initialisation and crop positions")
+    .Add("threads", &S::threads, 1, 256, "torch intra-op threads"))
 
 void TrainOptions::Check() const {
   RELIT_REQUIRE(learning_rate > 0 && learning_rate < 1, "learning_rate must be in (0, 1), got ", learning_rate);
@@ -194,80 +180,65 @@ void TrainOptions::Check() const {
   RELIT_REQUIRE(mask_loss_weight >= 0 && std::isfinite(mask_loss_weight), "mask_loss_weight must be >= 0");
 }
 
-const OptionFields<TrainStageOptions>& TrainStageOptions::Fields() {
-  using S = TrainStageOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("steps", &S::steps, 1, 100000000, "optimisation steps per partition")
-          .Add("checkpoint_every", &S::checkpoint_every, 1, 100000000, "steps between checkpoints")
-          .Add("validate_every", &S::validate_every, 0, 100000000, "steps between validations; 0 = only at the end")
-          .Add("log_every", &S::log_every, 1, 100000000, "steps between log lines")
-          .Add("max_validation_frames", &S::max_validation_frames, 0, 1000, "whole-frame renders per validation")
-          .Add("validate_corrections", &S::validate_corrections,
-               "residual model: after training, each correction network stays only if it beats the cue regression "
-               "/ the proxy's coverage on the validation frames (recorded in train.json corrections); off by "
-               "default: the choice is saved into the checkpoint, so a continued training would not reproduce an "
-               "uninterrupted run")
-          .Inline(&S::optimizer);
-  return fields;
-}
+RELIT_OPTION_FIELDS(TrainStageOptions,
+    .Add("steps", &S::steps, 1, 100000000, "optimisation steps per partition")
+    .Add("checkpoint_every", &S::checkpoint_every, 1, 100000000, "steps between checkpoints")
+    .Add("validate_every", &S::validate_every, 0, 100000000, "steps between validations; 0 = only at the end")
+    .Add("log_every", &S::log_every, 1, 100000000, "steps between log lines")
+    .Add("max_validation_frames", &S::max_validation_frames, 0, 1000, "whole-frame renders per validation")
+    .Add("validate_corrections", &S::validate_corrections,
+         "residual model: after training, each correction network stays only if it beats the cue regression "
+         "/ the proxy's coverage on the validation frames (recorded in train.json corrections); off by "
+         "default: the choice is saved into the checkpoint, so a continued training would not reproduce an "
+         "uninterrupted run")
+    .Inline(&S::optimizer))
 
-const OptionFields<AugmentOptions>& AugmentOptions::Fields() {
-  using S = AugmentOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("enabled", &S::enabled, "the pipeline runs the augment steps")
-          .Add("maps", &S::maps, 0, 100000, "procedural environment maps in the set")
-          .Add("map_dir", &S::map_dir, "a folder of the user's .exr/.hdr maps (equirectangular, +Z up) added to the set")
-          .Add("map_width_px", &S::map_width_px, 16, 8192, "procedural map width; even")
-          .Add("maps_per_view", &S::maps_per_view, 1, 1000, "maps drawn per augmented view")
-          .Add("directions", &S::directions, 1, 100000, "directional lights per view")
-          .Add("sampling", &S::sampling, {"importance", "all"},
-               "the directions: importance (a mixture of the view's maps) or all (a fixed Fibonacci set, "
-               "Voronoi-cell weights)")
-          .Add("views", &S::views, 0, 1000000, "augmented training views per partition, evenly spread; 0 = all")
-          .Add("resolution_scale", &S::resolution_scale, 0.05, 1.0, "augmented frame size / training frame size")
-          .Add("samples_per_pixel", &S::samples_per_pixel, 1, 1 << 16, "cue paths per pixel under each directional light")
-          .Add("map_samples_per_pixel", &S::map_samples_per_pixel, 1, 1 << 16, "cue paths per pixel under a map")
-          .Add("exposure", &S::exposure, 1e-6, 1e6, "map irradiance / the flash's irradiance at the capture distance")
-          .Add("steps", &S::steps, 1, 100000000, "fine-tuning steps, alternating captured and augmented frames")
-          .Add("checkpoint_every", &S::checkpoint_every, 1, 100000000, "steps between checkpoints")
-          .Add("log_every", &S::log_every, 1, 100000000, "steps between log lines")
-          .Add("seed", &S::seed, "map family, draws and directions");
-  return fields;
-}
+RELIT_OPTION_FIELDS(AugmentOptions,
+    .Add("enabled", &S::enabled, "the pipeline runs the augment steps")
+    .Add("maps", &S::maps, 0, 100000, "procedural environment maps in the set")
+    .Add("map_dir", &S::map_dir, "a folder of the user's .exr/.hdr maps (equirectangular, +Z up) added to the set")
+    .Add("map_width_px", &S::map_width_px, 16, 8192, "procedural map width; even")
+    .Add("maps_per_view", &S::maps_per_view, 1, 1000, "maps drawn per augmented view")
+    .Add("directions", &S::directions, 1, 100000, "directional lights per view")
+    .Add("sampling", &S::sampling, {"importance", "all"},
+         "the directions: importance (a mixture of the view's maps) or all (a fixed Fibonacci set, "
+         "Voronoi-cell weights)")
+    .Add("views", &S::views, 0, 1000000, "augmented training views per partition, evenly spread; 0 = all")
+    .Add("resolution_scale", &S::resolution_scale, 0.05, 1.0, "augmented frame size / training frame size")
+    .Add("samples_per_pixel", &S::samples_per_pixel, 1, 1 << 16, "cue paths per pixel under each directional light")
+    .Add("map_samples_per_pixel", &S::map_samples_per_pixel, 1, 1 << 16, "cue paths per pixel under a map")
+    .Add("exposure", &S::exposure, 1e-6, 1e6, "map irradiance / the flash's irradiance at the capture distance")
+    .Add("steps", &S::steps, 1, 100000000, "fine-tuning steps, alternating captured and augmented frames")
+    .Add("checkpoint_every", &S::checkpoint_every, 1, 100000000, "steps between checkpoints")
+    .Add("log_every", &S::log_every, 1, 100000000, "steps between log lines")
+    .Add("seed", &S::seed, "map family, draws and directions"))
 
 void AugmentOptions::Check() const {
   RELIT_REQUIRE(map_width_px % 2 == 0, "map_width_px must be even, got ", map_width_px);
   RELIT_REQUIRE(map_dir.empty() || fs::is_directory(map_dir), "map_dir ", map_dir, " is not a folder");
 }
 
-const OptionFields<EvalOptions>& EvalOptions::Fields() {
-  using S = EvalOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("methods", &S::methods, KnownMethods(),
-               "what eval scores, in table order (\"Evaluation\"); model_point_light is skipped when no partition "
-               "is augmented")
-          .Add("samples_per_pixel", &S::samples_per_pixel, 0, 1 << 16,
-               "cue paths for the eval views; 0 = render.samples_per_pixel")
-          .Add("environment_samples_per_pixel", &S::environment_samples_per_pixel, 0, 1 << 16,
-               "cue paths under environment lights, whose cues are far noisier at equal samples (the prediction is "
-               "linear in the cues); 0 = eval.samples_per_pixel")
-          .Add("seed", &S::seed, "per-image cue seeds derive from it")
-          .Add("max_views", &S::max_views, 0, 100000, "0 = every eval view, else the first N of each view set")
-          .Add("baseline_resolution_px", &S::baseline_resolution_px, 1, 4096, "the cues-only baseline's texel grid")
-          .Add("baseline_ridge", &S::baseline_ridge, 0.0, 1e9,
-               "the cues-only baseline's pull towards the global fit (pixels' worth)")
-          .Add("cue_fit_resolution_px", &S::cue_fit_resolution_px, 1, 8192, "the cue_fit method's texel grid")
-          .Section("cue_fit", &S::cue_fit)
-          .Add("error_map_scale", &S::error_map_scale, 0.0, 1e6, "error PNGs show |pred - GT| x this; > 0")
-          .Add("clip_radiance", &S::clip_radiance, 0.0, 1e9,
-               "the capture's linear white level: render and truth are clipped per RGB channel to [0, this] before "
-               "scoring; 0 = no clip (\"Evaluation\")")
-          .Add("write_images", &S::write_images, "PNGs of renders, error maps and the truth");
-  return fields;
-}
+RELIT_OPTION_FIELDS(EvalOptions,
+    .Add("methods", &S::methods, KnownMethods(),
+         "what eval scores, in table order (\"Evaluation\"); model_point_light is skipped when no partition "
+         "is augmented")
+    .Add("samples_per_pixel", &S::samples_per_pixel, 0, 1 << 16,
+         "cue paths for the eval views; 0 = render.samples_per_pixel")
+    .Add("environment_samples_per_pixel", &S::environment_samples_per_pixel, 0, 1 << 16,
+         "cue paths under environment lights, whose cues are far noisier at equal samples (the prediction is "
+         "linear in the cues); 0 = eval.samples_per_pixel")
+    .Add("seed", &S::seed, "per-image cue seeds derive from it")
+    .Add("max_views", &S::max_views, 0, 100000, "0 = every eval view, else the first N of each view set")
+    .Add("baseline_resolution_px", &S::baseline_resolution_px, 1, 4096, "the cues-only baseline's texel grid")
+    .Add("baseline_ridge", &S::baseline_ridge, 0.0, 1e9,
+         "the cues-only baseline's pull towards the global fit (pixels' worth)")
+    .Add("cue_fit_resolution_px", &S::cue_fit_resolution_px, 1, 8192, "the cue_fit method's texel grid")
+    .Section("cue_fit", &S::cue_fit)
+    .Add("error_map_scale", &S::error_map_scale, 0.0, 1e6, "error PNGs show |pred - GT| x this; > 0")
+    .Add("clip_radiance", &S::clip_radiance, 0.0, 1e9,
+         "the capture's linear white level: render and truth are clipped per RGB channel to [0, this] before "
+         "scoring; 0 = no clip (\"Evaluation\")")
+    .Add("write_images", &S::write_images, "PNGs of renders, error maps and the truth"))
 
 void EvalOptions::Check() const {
   RELIT_REQUIRE(!methods.empty(), "methods must list at least one of model, model_point_light, cue_fit, cues_only");
@@ -276,26 +247,21 @@ void EvalOptions::Check() const {
   RELIT_REQUIRE(error_map_scale > 0, "error_map_scale must be > 0");
 }
 
-const OptionFields<InteropOptions>& InteropOptions::Fields() {
-  using S = InteropOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("enabled", &S::enabled, "write <asset>/interop at all (`--no-interop`)")
-          .Add("link_images", &S::link_images, "hard-link frames where possible (copy otherwise)")
-          .Add("bake_views", &S::bake_views, 1, 1000,
-               "preview bake: renders on the upper hemisphere around the object (`--bake-views`)")
-          .Add("bake_texture_px", &S::bake_texture_px, 16, 16384,
-               "square bake texture, a power of two (`--bake-texture-px`)")
-          .Add("bake_width_px", &S::bake_width_px, 0, 16384,
-               "bake render width; 0 = the training images', else a multiple of 4 (`--bake-width-px`)")
-          .Add("bake_samples_per_pixel", &S::bake_samples_per_pixel, 0, 1 << 16,
-               "cue paths per bake pixel; 0 = as the training cues (`--bake-samples-per-pixel`)")
-          .Add("bake_environment_radiance", &S::bake_environment_radiance,
-               "radiance of the bake's uniform white environment, in the cues' unit; > 0")
-          .Add("bake_exposure", &S::bake_exposure,
-               "linear scale before the texture's sRGB encoding; > 0 (`--bake-exposure`)");
-  return fields;
-}
+RELIT_OPTION_FIELDS(InteropOptions,
+    .Add("enabled", &S::enabled, "write <asset>/interop at all (`--no-interop`)")
+    .Add("link_images", &S::link_images, "hard-link frames where possible (copy otherwise)")
+    .Add("bake_views", &S::bake_views, 1, 1000,
+         "preview bake: renders on the upper hemisphere around the object (`--bake-views`)")
+    .Add("bake_texture_px", &S::bake_texture_px, 16, 16384,
+         "square bake texture, a power of two (`--bake-texture-px`)")
+    .Add("bake_width_px", &S::bake_width_px, 0, 16384,
+         "bake render width; 0 = the training images', else a multiple of 4 (`--bake-width-px`)")
+    .Add("bake_samples_per_pixel", &S::bake_samples_per_pixel, 0, 1 << 16,
+         "cue paths per bake pixel; 0 = as the training cues (`--bake-samples-per-pixel`)")
+    .Add("bake_environment_radiance", &S::bake_environment_radiance,
+         "radiance of the bake's uniform white environment, in the cues' unit; > 0")
+    .Add("bake_exposure", &S::bake_exposure,
+         "linear scale before the texture's sRGB encoding; > 0 (`--bake-exposure`)"))
 
 void InteropOptions::Check() const {
   RELIT_REQUIRE((bake_texture_px & (bake_texture_px - 1)) == 0, "bake_texture_px must be a power of two >= 16, got ",
@@ -306,25 +272,20 @@ void InteropOptions::Check() const {
   RELIT_REQUIRE(bake_exposure > 0, "bake_exposure must be > 0");
 }
 
-const OptionFields<RelightOptions>& RelightOptions::Fields() {
-  using S = RelightOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Section("cues", &S::cues)
-          .Section("dataset", &S::dataset)
-          .Section("partitions", &S::partitions)
-          .Section("model", &S::model)
-          .Section("train", &S::train)
-          .Section("augment", &S::augment)
-          .Section("render", &S::render)
-          .Section("export", &S::exports)
-          .Section("eval", &S::eval)
-          .Add("log_level", &S::log_level, LogLevelNames(), "what the stage prints (`--log-level`)")
-          // The model reads what the cues step renders.
-          .OnRead([](OptionsReader&, S* s) { s->model.format = s->cues.Format(); })
-          .OnToJson([](const S& s, nlohmann::json* json) { (*json)["workspace"] = s.workspace; });
-  return fields;
-}
+RELIT_OPTION_FIELDS(RelightOptions,
+    .Section("cues", &S::cues)
+    .Section("dataset", &S::dataset)
+    .Section("partitions", &S::partitions)
+    .Section("model", &S::model)
+    .Section("train", &S::train)
+    .Section("augment", &S::augment)
+    .Section("render", &S::render)
+    .Section("export", &S::exports)
+    .Section("eval", &S::eval)
+    .Add("log_level", &S::log_level, LogLevelNames(), "what the stage prints (`--log-level`)")
+    // The model reads what the cues step renders.
+    .OnRead([](OptionsReader&, S* s) { s->model.format = s->cues.Format(); })
+    .OnToJson([](const S& s, nlohmann::json* json) { (*json)["workspace"] = s.workspace; }))
 
 RelightOptions ReadRelightSection(OptionsReader& reader) {
   RelightOptions options;

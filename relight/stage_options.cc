@@ -7,42 +7,37 @@
 
 namespace relit::relight {
 
-const OptionFields<CueStageOptions>& CueStageOptions::Fields() {
-  using S = CueStageOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("samples_per_pixel", &S::samples_per_pixel, 1, 1 << 16, "paths per pixel, shared by the bases")
-          .Add("max_depth", &S::max_depth, 1, 64, "bounces (1 = direct light only)")
-          .Add("seed", &S::seed, "per-frame seeds derive from it")
-          .Add("flash_intensity", &S::flash_intensity,
-               "W/sr of the cue light (> 0); fixes the unit of rendered lights")
-          .Add("threads", &S::threads, 0, 1024, "0 = all cores")
-          .Add("input", &S::input, {CueFormat::kRadiance, CueFormat::kSh},
-               "the networks' light input: DNL's radiance cues or the spherical-harmonics DNR baseline (\"Baselines\")")
-          .Add("bases", &S::bases, CueFormat::DefaultBasisNames(),
-               "basis materials of the radiance cues, in channel order ([lambert] = the 1-basis ablation); "
-               "texture channels = bases x model.channels_per_basis")
-          .Add("support_plane", &S::support_plane,
-               "add the board and the table (z = 0) to every cue scene as context geometry (\"Support plane\"); "
-               "must be false with input: sh")
-          .Add("paper_albedo", &S::paper_albedo, 0.0, 1.0, "linear albedo of the board's white paper")
-          .Add("ink_albedo", &S::ink_albedo, 0.0, 1.0, "linear albedo of its printed black (<= paper_albedo)")
-          .Add("paper_margin_m", &S::paper_margin_m, 0.0, 1.0, "white paper around the printed squares, metres")
-          .Add("table_albedo", &S::table_albedo,
-               "linear RGB albedo of the table beyond the paper; [] = measured on the phone V frames against the paper")
-          .OnToJson([](const S& s, nlohmann::json* json) {
-            if (s.Format().is_default()) {
-              json->erase("input");
-              json->erase("bases");
-            } else if (s.Format().is_sh()) {
-              json->erase("bases");
-            }
-            if (!s.support_plane) {
-              for (const char* key : {"paper_albedo", "ink_albedo", "paper_margin_m", "table_albedo"}) json->erase(key);
-            }
-          });
-  return fields;
-}
+RELIT_OPTION_FIELDS(CueStageOptions,
+    .Add("samples_per_pixel", &S::samples_per_pixel, 1, 1 << 16, "paths per pixel, shared by the bases")
+    .Add("max_depth", &S::max_depth, 1, 64, "bounces (1 = direct light only)")
+    .Add("seed", &S::seed, "per-frame seeds derive from it")
+    .Add("flash_intensity", &S::flash_intensity,
+         "W/sr of the cue light (> 0); fixes the unit of rendered lights")
+    .Add("threads", &S::threads, 0, 1024, "0 = all cores")
+    .Add("input", &S::input, {CueFormat::kRadiance, CueFormat::kSh},
+         "the networks' light input: DNL's radiance cues or the spherical-harmonics DNR baseline (\"Baselines\")")
+    .Add("bases", &S::bases, CueFormat::DefaultBasisNames(),
+         "basis materials of the radiance cues, in channel order ([lambert] = the 1-basis ablation); "
+         "texture channels = bases x model.channels_per_basis")
+    .Add("support_plane", &S::support_plane,
+         "add the board and the table (z = 0) to every cue scene as context geometry (\"Support plane\"); "
+         "must be false with input: sh")
+    .Add("paper_albedo", &S::paper_albedo, 0.0, 1.0, "linear albedo of the board's white paper")
+    .Add("ink_albedo", &S::ink_albedo, 0.0, 1.0, "linear albedo of its printed black (<= paper_albedo)")
+    .Add("paper_margin_m", &S::paper_margin_m, 0.0, 1.0, "white paper around the printed squares, metres")
+    .Add("table_albedo", &S::table_albedo,
+         "linear RGB albedo of the table beyond the paper; [] = measured on the phone V frames against the paper")
+    .OnToJson([](const S& s, nlohmann::json* json) {
+      if (s.Format().is_default()) {
+        json->erase("input");
+        json->erase("bases");
+      } else if (s.Format().is_sh()) {
+        json->erase("bases");
+      }
+      if (!s.support_plane) {
+        for (const char* key : {"paper_albedo", "ink_albedo", "paper_margin_m", "table_albedo"}) json->erase(key);
+      }
+    }))
 
 void CueStageOptions::Check() const {
   RELIT_REQUIRE(std::isfinite(flash_intensity) && flash_intensity > 0, "flash_intensity must be > 0, got ",
@@ -57,47 +52,37 @@ void CueStageOptions::Check() const {
                 "support_plane needs input: radiance (set support_plane: false for input: sh)");
 }
 
-const OptionFields<DatasetOptions>& DatasetOptions::Fields() {
-  using S = DatasetOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("holdout_every", &S::holdout_every, 0, 1000000,
-               "every n-th phone V frame (time order) validates and never trains; 0 = none, else >= 2")
-          .Add("drop_unreliable_lights", &S::drop_unreliable_lights,
-               "drop the frames whose light position calib flagged unreliable")
-          .Add("max_radiance_quantile", &S::max_radiance_quantile, 0.5, 1.0,
-               "quantile of the training targets' per-pixel maximum taken as M of the log encoding")
-          .Add("max_radiance_margin", &S::max_radiance_margin, 1.0, 100.0, "M = that quantile times this");
-  return fields;
-}
+RELIT_OPTION_FIELDS(DatasetOptions,
+    .Add("holdout_every", &S::holdout_every, 0, 1000000,
+         "every n-th phone V frame (time order) validates and never trains; 0 = none, else >= 2")
+    .Add("drop_unreliable_lights", &S::drop_unreliable_lights,
+         "drop the frames whose light position calib flagged unreliable")
+    .Add("max_radiance_quantile", &S::max_radiance_quantile, 0.5, 1.0,
+         "quantile of the training targets' per-pixel maximum taken as M of the log encoding")
+    .Add("max_radiance_margin", &S::max_radiance_margin, 1.0, 100.0, "M = that quantile times this"))
 
 void DatasetOptions::Check() const {
   RELIT_REQUIRE(holdout_every == 0 || holdout_every >= 2, "holdout_every must be 0 (no validation) or >= 2, got ",
                 holdout_every);
 }
 
-const OptionFields<RenderStageOptions>& RenderStageOptions::Fields() {
-  using S = RenderStageOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("frames", &S::frames, 1, 100000, "turntable frames (one revolution)")
-          .Add("width_px", &S::width_px, 0, 16384, "0 = the training images' size; a multiple of 4")
-          .Add("height_px", &S::height_px, 0, 16384, "0 = the training images' size; a multiple of 4")
-          .Add("elevation_deg", &S::elevation_deg, -89.0, 89.0, "turntable camera elevation above the board")
-          .Add("distance_scale", &S::distance_scale, 0.0, 1000.0,
-               "camera distance / object radius; 0 = the capture's mean distance")
-          .Add("fps", &S::fps, 0.1, 240.0, "MP4 frame rate")
-          .Add("point_light_offset_m", &S::point_light_offset_m,
-               "the point light relative to the camera, in its frame (x right, y down, z forward), metres")
-          .Add("point_light_intensity", &S::point_light_intensity,
-               "flash units (1 = the capture's flash as the cues see it); > 0")
-          .Add("environment_map", &S::environment_map,
-               "EXR/HDR file (equirectangular, +Z up), procedural:sky or procedural:studio; \"\" = procedural:sky")
-          .Add("environment_scale", &S::environment_scale, "the map's radiance scale; > 0")
-          .Add("samples_per_pixel", &S::samples_per_pixel, 1, 1 << 16, "cue paths per pixel for new views")
-          .Add("write_mp4", &S::write_mp4, "the turntables as MP4 too");
-  return fields;
-}
+RELIT_OPTION_FIELDS(RenderStageOptions,
+    .Add("frames", &S::frames, 1, 100000, "turntable frames (one revolution)")
+    .Add("width_px", &S::width_px, 0, 16384, "0 = the training images' size; a multiple of 4")
+    .Add("height_px", &S::height_px, 0, 16384, "0 = the training images' size; a multiple of 4")
+    .Add("elevation_deg", &S::elevation_deg, -89.0, 89.0, "turntable camera elevation above the board")
+    .Add("distance_scale", &S::distance_scale, 0.0, 1000.0,
+         "camera distance / object radius; 0 = the capture's mean distance")
+    .Add("fps", &S::fps, 0.1, 240.0, "MP4 frame rate")
+    .Add("point_light_offset_m", &S::point_light_offset_m,
+         "the point light relative to the camera, in its frame (x right, y down, z forward), metres")
+    .Add("point_light_intensity", &S::point_light_intensity,
+         "flash units (1 = the capture's flash as the cues see it); > 0")
+    .Add("environment_map", &S::environment_map,
+         "EXR/HDR file (equirectangular, +Z up), procedural:sky or procedural:studio; \"\" = procedural:sky")
+    .Add("environment_scale", &S::environment_scale, "the map's radiance scale; > 0")
+    .Add("samples_per_pixel", &S::samples_per_pixel, 1, 1 << 16, "cue paths per pixel for new views")
+    .Add("write_mp4", &S::write_mp4, "the turntables as MP4 too"))
 
 void RenderStageOptions::Check() const {
   RELIT_REQUIRE((width_px == 0) == (height_px == 0),

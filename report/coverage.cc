@@ -23,18 +23,13 @@ std::string Fixed(double value) {
 
 }  // namespace
 
-const OptionFields<CoverageThresholds>& CoverageThresholds::Fields() {
-  using S = CoverageThresholds;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("min_view_spread_deg", &S::min_view_spread_deg, 0.0, 90.0, "warn below this spread of camera directions")
-          .Add("min_light_spread_deg", &S::min_light_spread_deg, 0.0, 90.0, "... of light directions")
-          .Add("min_relative_light_spread_deg", &S::min_relative_light_spread_deg, 0.0, 90.0,
-               "... of the light seen from the camera")
-          .Add("min_view_light_angle_deg", &S::min_view_light_angle_deg, 0.0, 180.0,
-               "warn below this median angle between camera and light");
-  return fields;
-}
+RELIT_OPTION_FIELDS(CoverageThresholds,
+    .Add("min_view_spread_deg", &S::min_view_spread_deg, 0.0, 90.0, "warn below this spread of camera directions")
+    .Add("min_light_spread_deg", &S::min_light_spread_deg, 0.0, 90.0, "... of light directions")
+    .Add("min_relative_light_spread_deg", &S::min_relative_light_spread_deg, 0.0, 90.0,
+         "... of the light seen from the camera")
+    .Add("min_view_light_angle_deg", &S::min_view_light_angle_deg, 0.0, 180.0,
+         "warn below this median angle between camera and light"))
 
 // The JSON keys are the members' names.
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(CoverageStats, frames, view_spread_deg, light_spread_deg,

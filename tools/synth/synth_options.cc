@@ -112,101 +112,96 @@ SynthOptions SynthOptions::ForSize(const std::string& size) {
   return o;
 }
 
-const OptionFields<SynthOptions>& SynthOptions::Fields() {
-  using S = SynthOptions;
-  static const auto fields =
-      OptionFields<S>()
-          .Add("preset", &S::preset, PresetNames(), "the scene (see \"Presets\" in docs/synthetic.md)")
-          .Add("mesh_path", &S::mesh_path, "preset mesh: OBJ or PLY file (`--mesh`)")
-          .Add("mesh_height_m", &S::mesh_height_m, 0.01, 0.5, "preset mesh: scaled to this height, metres")
-          .Add("mesh_y_up", &S::mesh_y_up, "preset mesh: false if the file is Z-up")
-          .Add("size", &S::size, SizeNames(), "the defaults of every other key (`--size`)")
-          .Add("seed", &S::seed, "random seed of paths, noise, audio and eval views (`--seed`)")
-          .Add("out", &S::out, "output folder (`--out`)")
-          .Add("assets_dir", &S::assets_dir, "meshes and textures; empty = the compiled-in tools/synth/assets")
-          .Add("geometry_pass", &S::geometry_pass, "also render geometry.mp4 under soft ambient light")
-          .Add("truth_only", &S::truth_only, "write truth.json and meshes, render nothing")
-          .Add("eval_only", &S::eval_only, "render the evaluation set (and truth.json), no videos")
-          .Add("board_clip_frames", &S::board_clip_frames, 0, 1000,
-               "per phone: board-only frames for lens calibration in board_clip/<phone>/ (`--board-clip`)")
-          .Add("width_px", &S::width_px, 16, 8192, "phone V's frame width; even")
-          .Add("height_px", &S::height_px, 16, 8192, "phone V's frame height; even")
-          .Add("fps", &S::fps, 1, 240, "phone V's frame rate")
-          .Add("frames_per_video", &S::frames_per_video, 2, 100000, "phone V's frames")
-          .Add("samples_per_pixel", &S::samples_per_pixel, 1, 1 << 16, "path samples per video pixel")
-          .Add("max_depth", &S::max_depth, 1, 64, "path length in bounces")
-          .Add("crf", &S::crf, 0, 51, "H.264 quality of the videos")
-          .Add("display_rotation_deg", &S::display_rotation_deg,
-               "phone-style rotate metadata on the MP4s: 0, 90, 180 or 270")
-          .Add("light_frames_per_video", &S::light_frames_per_video, 0, 100000,
-               "phone L's frames: 0 (= frames_per_video) or >= 2")
-          .Add("light_fps", &S::light_fps, 0.0, 240.0,
-               "phone L's frame rate: 0 (= fps) or >= 1; 29.97, 59.94, 23.976 mean 30000/1001, ...")
-          .Add("view_audio_rate_hz", &S::view_audio_rate_hz, 8000, 192000, "phone V's audio sample rate")
-          .Add("light_audio_rate_hz", &S::light_audio_rate_hz, 8000, 192000, "phone L's audio sample rate")
-          .Add("light_width_px", &S::light_width_px, 0, 8192, "phone L's frame width (0 = width_px)")
-          .Add("light_height_px", &S::light_height_px, 0, 8192, "phone L's frame height (0 = height_px)")
-          .Add("light_display_rotation_deg", &S::light_display_rotation_deg,
-               "phone L's rotate metadata (-1 = display_rotation_deg)")
-          .Add("view_audio_start_s", &S::view_audio_start_s, -0.5, 0.5,
-               "where phone V's audio starts relative to its first frame, s (negative: audio first)")
-          .Add("light_audio_start_s", &S::light_audio_start_s, -0.5, 0.5, "the same for phone L")
-          .Add("view_rolling_shutter_s", &S::view_rolling_shutter_s, 0.0, 0.1,
-               "phone V's readout from the first to the last row, s (0 = global shutter); below 1 / fps")
-          .Add("light_rolling_shutter_s", &S::light_rolling_shutter_s, 0.0, 0.1, "the same for phone L")
-          .Add("view_exposure_drift", &S::view_exposure_drift, 0.0, 0.5,
-               "relative amplitude of phone V's auto-exposure drift over the video")
-          .Add("light_exposure_drift", &S::light_exposure_drift, 0.0, 0.5, "the same for phone L")
-          .Add("view_flash_shadow_factor", &S::view_flash_shadow_factor, 0.0, 1.0,
-               "radiance factor of the flash shadow on the board in phone V's frames (1 = none)")
-          .Add("view_flash_shadow_edge_m", &S::view_flash_shadow_edge_m, -1.0, 1.0,
-               "the shadow starts this far beyond the board centre along the flash's direction, m")
-          .Add("view_hfov_deg", &S::view_hfov_deg, 20.0, 120.0, "phone V's horizontal field of view")
-          .Add("light_hfov_deg", &S::light_hfov_deg, 20.0, 120.0, "phone L's horizontal field of view")
-          .Add("view_principal_offset", &S::view_principal_offset,
-               "phone V's principal point offset, 2 fractions of the image size below 0.2")
-          .Add("light_principal_offset", &S::light_principal_offset, "the same for phone L")
-          .Add("view_distortion", &S::view_distortion, "phone V's OpenCV distortion: k1, k2, p1, p2, k3")
-          .Add("light_distortion", &S::light_distortion, "the same for phone L")
-          .Add("distance_min_m", &S::distance_min_m, 0.1, 5.0, "nearest camera distance to the object, m")
-          .Add("distance_max_m", &S::distance_max_m, 0.1, 5.0, "farthest camera distance, m")
-          .Add("elevation_min_deg", &S::elevation_min_deg, 5.0, 85.0,
-               "lowest camera elevation (upper hemisphere, above the table)")
-          .Add("elevation_max_deg", &S::elevation_max_deg, 5.0, 85.0, "highest camera elevation")
-          .Add("view_turns", &S::view_turns, -20.0, 20.0, "azimuth revolutions of phone V over its video")
-          .Add("light_speed_ratio", &S::light_speed_ratio, 0.0, 20.0, "phone L's azimuth rate / phone V's")
-          .Add("roll_max_deg", &S::roll_max_deg, 0.0, 45.0, "largest hand roll of the phones")
-          .Add("jitter_m", &S::jitter_m, 0.0, 0.02, "hand shake, metres")
-          .Add("jitter_deg", &S::jitter_deg, 0.0, 3.0, "hand shake, degrees")
-          .Add("aim_error_m", &S::aim_error_m, 0.0, 0.1, "how far the phones aim off the object centre, m")
-          .Add("flash_offset_cam_m", &S::flash_offset_cam_m,
-               "the flash's offset from phone L's lens in its camera frame: x, y, z within 0.1 m")
-          .Add("flash_intensity_w_per_sr", &S::flash_intensity_w_per_sr, 0.0, 1e6, "the flash's intensity")
-          .Add("geometry_ambient_scale", &S::geometry_ambient_scale, 0.0, 1e6,
-               "radiance scale of the geometry pass's environment")
-          .Add("exposure", &S::exposure, "sensor exposure; > 0")
-          .Add("full_well_e", &S::full_well_e, 10.0, 1e9, "sensor full well, electrons")
-          .Add("read_noise_e", &S::read_noise_e, 0.0, 1e6, "sensor read noise, electrons")
-          .Add("audio_offset_min_s", &S::audio_offset_min_s, 0.0, 3600.0,
-               "|offset| between the recordings' starts is drawn in [min, max], random sign")
-          .Add("audio_offset_max_s", &S::audio_offset_max_s, 0.0, 3600.0,
-               "see audio_offset_min_s; leaves >= 0.5 s of overlap")
-          .Add("clap_count", &S::clap_count, 1, 100, "claps both phones hear")
-          .Add("eval_views", &S::eval_views, 0, 1000,
-               "extrapolation views, >= eval_min_angle_deg from phone V's path (`--eval-views`)")
-          .Add("eval_interpolation_views", &S::eval_interpolation_views, 0, 1000,
-               "views on phone V's path between its frames (DNL's held-out frames)")
-          .Add("eval_samples_per_pixel", &S::eval_samples_per_pixel, 1, 1 << 16, "path samples per eval pixel")
-          .Add("eval_noise_twin", &S::eval_noise_twin,
-               "render every eval image twice (independent seeds), for eval's noise floor of the truth")
-          .Add("eval_point_lights", &S::eval_point_lights, 0, 100, "point lights of the eval set")
-          .Add("eval_directional_lights", &S::eval_directional_lights, 0, 100, "directional lights of the eval set")
-          .Add("envmap_width_px", &S::envmap_width_px, 16, 16384, "width of the eval set's environment maps; even")
-          .Add("eval_min_angle_deg", &S::eval_min_angle_deg, 0.0, 90.0,
-               "held-out views stay this far from every phone V view")
-          .Section("board", &S::board);
-  return fields;
-}
+RELIT_OPTION_FIELDS(SynthOptions,
+    .Add("preset", &S::preset, PresetNames(), "the scene (see \"Presets\" in docs/synthetic.md)")
+    .Add("mesh_path", &S::mesh_path, "preset mesh: OBJ or PLY file (`--mesh`)")
+    .Add("mesh_height_m", &S::mesh_height_m, 0.01, 0.5, "preset mesh: scaled to this height, metres")
+    .Add("mesh_y_up", &S::mesh_y_up, "preset mesh: false if the file is Z-up")
+    .Add("size", &S::size, SizeNames(), "the defaults of every other key (`--size`)")
+    .Add("seed", &S::seed, "random seed of paths, noise, audio and eval views (`--seed`)")
+    .Add("out", &S::out, "output folder (`--out`)")
+    .Add("assets_dir", &S::assets_dir, "meshes and textures; empty = the compiled-in tools/synth/assets")
+    .Add("geometry_pass", &S::geometry_pass, "also render geometry.mp4 under soft ambient light")
+    .Add("truth_only", &S::truth_only, "write truth.json and meshes, render nothing")
+    .Add("eval_only", &S::eval_only, "render the evaluation set (and truth.json), no videos")
+    .Add("board_clip_frames", &S::board_clip_frames, 0, 1000,
+         "per phone: board-only frames for lens calibration in board_clip/<phone>/ (`--board-clip`)")
+    .Add("width_px", &S::width_px, 16, 8192, "phone V's frame width; even")
+    .Add("height_px", &S::height_px, 16, 8192, "phone V's frame height; even")
+    .Add("fps", &S::fps, 1, 240, "phone V's frame rate")
+    .Add("frames_per_video", &S::frames_per_video, 2, 100000, "phone V's frames")
+    .Add("samples_per_pixel", &S::samples_per_pixel, 1, 1 << 16, "path samples per video pixel")
+    .Add("max_depth", &S::max_depth, 1, 64, "path length in bounces")
+    .Add("crf", &S::crf, 0, 51, "H.264 quality of the videos")
+    .Add("display_rotation_deg", &S::display_rotation_deg,
+         "phone-style rotate metadata on the MP4s: 0, 90, 180 or 270")
+    .Add("light_frames_per_video", &S::light_frames_per_video, 0, 100000,
+         "phone L's frames: 0 (= frames_per_video) or >= 2")
+    .Add("light_fps", &S::light_fps, 0.0, 240.0,
+         "phone L's frame rate: 0 (= fps) or >= 1; 29.97, 59.94, 23.976 mean 30000/1001, ...")
+    .Add("view_audio_rate_hz", &S::view_audio_rate_hz, 8000, 192000, "phone V's audio sample rate")
+    .Add("light_audio_rate_hz", &S::light_audio_rate_hz, 8000, 192000, "phone L's audio sample rate")
+    .Add("light_width_px", &S::light_width_px, 0, 8192, "phone L's frame width (0 = width_px)")
+    .Add("light_height_px", &S::light_height_px, 0, 8192, "phone L's frame height (0 = height_px)")
+    .Add("light_display_rotation_deg", &S::light_display_rotation_deg,
+         "phone L's rotate metadata (-1 = display_rotation_deg)")
+    .Add("view_audio_start_s", &S::view_audio_start_s, -0.5, 0.5,
+         "where phone V's audio starts relative to its first frame, s (negative: audio first)")
+    .Add("light_audio_start_s", &S::light_audio_start_s, -0.5, 0.5, "the same for phone L")
+    .Add("view_rolling_shutter_s", &S::view_rolling_shutter_s, 0.0, 0.1,
+         "phone V's readout from the first to the last row, s (0 = global shutter); below 1 / fps")
+    .Add("light_rolling_shutter_s", &S::light_rolling_shutter_s, 0.0, 0.1, "the same for phone L")
+    .Add("view_exposure_drift", &S::view_exposure_drift, 0.0, 0.5,
+         "relative amplitude of phone V's auto-exposure drift over the video")
+    .Add("light_exposure_drift", &S::light_exposure_drift, 0.0, 0.5, "the same for phone L")
+    .Add("view_flash_shadow_factor", &S::view_flash_shadow_factor, 0.0, 1.0,
+         "radiance factor of the flash shadow on the board in phone V's frames (1 = none)")
+    .Add("view_flash_shadow_edge_m", &S::view_flash_shadow_edge_m, -1.0, 1.0,
+         "the shadow starts this far beyond the board centre along the flash's direction, m")
+    .Add("view_hfov_deg", &S::view_hfov_deg, 20.0, 120.0, "phone V's horizontal field of view")
+    .Add("light_hfov_deg", &S::light_hfov_deg, 20.0, 120.0, "phone L's horizontal field of view")
+    .Add("view_principal_offset", &S::view_principal_offset,
+         "phone V's principal point offset, 2 fractions of the image size below 0.2")
+    .Add("light_principal_offset", &S::light_principal_offset, "the same for phone L")
+    .Add("view_distortion", &S::view_distortion, "phone V's OpenCV distortion: k1, k2, p1, p2, k3")
+    .Add("light_distortion", &S::light_distortion, "the same for phone L")
+    .Add("distance_min_m", &S::distance_min_m, 0.1, 5.0, "nearest camera distance to the object, m")
+    .Add("distance_max_m", &S::distance_max_m, 0.1, 5.0, "farthest camera distance, m")
+    .Add("elevation_min_deg", &S::elevation_min_deg, 5.0, 85.0,
+         "lowest camera elevation (upper hemisphere, above the table)")
+    .Add("elevation_max_deg", &S::elevation_max_deg, 5.0, 85.0, "highest camera elevation")
+    .Add("view_turns", &S::view_turns, -20.0, 20.0, "azimuth revolutions of phone V over its video")
+    .Add("light_speed_ratio", &S::light_speed_ratio, 0.0, 20.0, "phone L's azimuth rate / phone V's")
+    .Add("roll_max_deg", &S::roll_max_deg, 0.0, 45.0, "largest hand roll of the phones")
+    .Add("jitter_m", &S::jitter_m, 0.0, 0.02, "hand shake, metres")
+    .Add("jitter_deg", &S::jitter_deg, 0.0, 3.0, "hand shake, degrees")
+    .Add("aim_error_m", &S::aim_error_m, 0.0, 0.1, "how far the phones aim off the object centre, m")
+    .Add("flash_offset_cam_m", &S::flash_offset_cam_m,
+         "the flash's offset from phone L's lens in its camera frame: x, y, z within 0.1 m")
+    .Add("flash_intensity_w_per_sr", &S::flash_intensity_w_per_sr, 0.0, 1e6, "the flash's intensity")
+    .Add("geometry_ambient_scale", &S::geometry_ambient_scale, 0.0, 1e6,
+         "radiance scale of the geometry pass's environment")
+    .Add("exposure", &S::exposure, "sensor exposure; > 0")
+    .Add("full_well_e", &S::full_well_e, 10.0, 1e9, "sensor full well, electrons")
+    .Add("read_noise_e", &S::read_noise_e, 0.0, 1e6, "sensor read noise, electrons")
+    .Add("audio_offset_min_s", &S::audio_offset_min_s, 0.0, 3600.0,
+         "|offset| between the recordings' starts is drawn in [min, max], random sign")
+    .Add("audio_offset_max_s", &S::audio_offset_max_s, 0.0, 3600.0,
+         "see audio_offset_min_s; leaves >= 0.5 s of overlap")
+    .Add("clap_count", &S::clap_count, 1, 100, "claps both phones hear")
+    .Add("eval_views", &S::eval_views, 0, 1000,
+         "extrapolation views, >= eval_min_angle_deg from phone V's path (`--eval-views`)")
+    .Add("eval_interpolation_views", &S::eval_interpolation_views, 0, 1000,
+         "views on phone V's path between its frames (DNL's held-out frames)")
+    .Add("eval_samples_per_pixel", &S::eval_samples_per_pixel, 1, 1 << 16, "path samples per eval pixel")
+    .Add("eval_noise_twin", &S::eval_noise_twin,
+         "render every eval image twice (independent seeds), for eval's noise floor of the truth")
+    .Add("eval_point_lights", &S::eval_point_lights, 0, 100, "point lights of the eval set")
+    .Add("eval_directional_lights", &S::eval_directional_lights, 0, 100, "directional lights of the eval set")
+    .Add("envmap_width_px", &S::envmap_width_px, 16, 16384, "width of the eval set's environment maps; even")
+    .Add("eval_min_angle_deg", &S::eval_min_angle_deg, 0.0, 90.0,
+         "held-out views stay this far from every phone V view")
+    .Section("board", &S::board))
 
 void SynthOptions::Check() const {
   RELIT_REQUIRE(preset != "mesh" || !mesh_path.empty(),
