@@ -29,9 +29,7 @@ AssetDescription DescribeWorkspace(const std::string& workspace, ModelSet models
   RELIT_REQUIRE(fs::exists(cues_path), cues_path, " is missing: run `relit-relight cues` first");
   const CuesFile cues = ReadCuesFile(cues_path);
   AssetDescription asset;
-  asset.layout_options = plan.layout_options;
-  asset.object_centre_m = plan.object_centre_m;
-  asset.object_radius_m = plan.object_radius_m;
+  static_cast<ObjectLayout&>(asset) = plan;
   asset.camera = cues.camera;
   asset.flash_intensity = cues.flash_intensity;
   asset.cue_max_depth = cues.max_depth;

@@ -30,12 +30,10 @@ class RunRecord;
 
 namespace relit::relight {
 
-struct AssetDescription {
+// The object and its layout come from the plan (ObjectLayout).
+struct AssetDescription : ObjectLayout {
   static constexpr const char* kKind = "asset";
   static constexpr int kVersion = 1;
-  PartitionLayoutOptions layout_options;
-  Eigen::Vector3d object_centre_m = Eigen::Vector3d::Zero();
-  double object_radius_m = 0;
   Intrinsics camera;                 // the training (undistorted) camera
   double capture_distance_m = 0;     // mean camera distance of the capture
   double flash_intensity = 1;        // W/sr of the cue light = the unit of light intensities

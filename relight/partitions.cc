@@ -100,6 +100,19 @@ PartitionLayoutOptions PartitionLayoutOptionsFromJson(const nlohmann::json& j, c
   return options;
 }
 
+nlohmann::json ObjectLayoutJson(const ObjectLayout& object) {
+  return {{"layout_options", OptionsToJson(object.layout_options)},
+          {"layout", object.Layout().ToJson()},
+          {"object_centre_m", ToJson(object.object_centre_m)},
+          {"object_radius_m", object.object_radius_m}};
+}
+
+void ReadObjectLayout(const nlohmann::json& j, const std::string& path, ObjectLayout* object) {
+  object->layout_options = PartitionLayoutOptionsFromJson(JsonField(j, "layout_options", path), path);
+  object->object_centre_m = Vector3FromJson(JsonField(j, "object_centre_m", path), path);
+  object->object_radius_m = JsonNumber(j, "object_radius_m", path);
+}
+
 RELIT_OPTION_FIELDS(PartitionLayoutOptions,
     .Add("layout", &S::layout, {"dnl13", "single", "custom"},
          "dnl13: 13 vertices, 18 triangles, as in DNL; single: one partition holding every frame; custom: "

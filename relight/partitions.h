@@ -113,4 +113,19 @@ class PartitionLayout {
 // Unit direction from elevation/azimuth in degrees.
 Eigen::Vector3d DirectionFromElevationAzimuthDeg(double elevation_deg, double azimuth_deg);
 
+// The object and its partition layout: what plan.json records and an asset's
+// manifest.json takes from the plan (Plan and AssetDescription derive from it).
+struct ObjectLayout {
+  PartitionLayoutOptions layout_options;
+  Eigen::Vector3d object_centre_m = Eigen::Vector3d::Zero();  // view directions are measured from here
+  double object_radius_m = 0;
+
+  PartitionLayout Layout() const { return PartitionLayout::FromOptions(layout_options); }
+};
+
+// {layout_options, layout (derived, for other readers), object_centre_m,
+// object_radius_m}, and the inverse (throws relit::Error naming `path`).
+nlohmann::json ObjectLayoutJson(const ObjectLayout& object);
+void ReadObjectLayout(const nlohmann::json& j, const std::string& path, ObjectLayout* object);
+
 }  // namespace relit::relight

@@ -47,38 +47,16 @@ struct PlanPartition {
   std::vector<int> validation_frames;
 };
 
-struct Plan {
+struct Plan : ObjectLayout {
   static constexpr const char* kKind = "relight_plan";
   static constexpr int kVersion = 1;
-  PartitionLayoutOptions layout_options;
-  Eigen::Vector3d object_centre_m = Eigen::Vector3d::Zero();
-  double object_radius_m = 0;
   double max_radiance = 0;
   int width_px = 0, height_px = 0;   // training image size
   std::vector<PlanFrame> frames;
   std::vector<PlanPartition> partitions;
 
-  PartitionLayout Layout() const { return PartitionLayout::FromOptions(layout_options); }
   int FrameIndex(const std::string& name) const;  // -1 when absent
 };
-
-// The object and its partition layout, as plan.json and an asset's
-// manifest.json (taken from the plan) both record them: layout_options,
-// layout (derived, for other readers), object_centre_m, object_radius_m.
-// `Record` is Plan or AssetDescription.
-template <typename Record>
-nlohmann::json ObjectLayoutJson(const Record& r) {
-  return {{"layout_options", OptionsToJson(r.layout_options)},
-          {"layout", PartitionLayout::FromOptions(r.layout_options).ToJson()},
-          {"object_centre_m", ToJson(r.object_centre_m)},
-          {"object_radius_m", r.object_radius_m}};
-}
-template <typename Record>
-void ReadObjectLayout(const nlohmann::json& j, const std::string& path, Record* r) {
-  r->layout_options = PartitionLayoutOptionsFromJson(JsonField(j, "layout_options", path), path);
-  r->object_centre_m = Vector3FromJson(JsonField(j, "object_centre_m", path), path);
-  r->object_radius_m = JsonNumber(j, "object_radius_m", path);
-}
 
 Plan ReadPlan(const std::string& path);
 void WritePlan(const std::string& path, const Plan& plan);

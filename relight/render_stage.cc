@@ -30,7 +30,7 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 RelitRenderer::RelitRenderer(const AssetDescription& asset, const std::string& device)
-    : asset_(asset), layout_(PartitionLayout::FromOptions(asset.layout_options)) {
+    : asset_(asset), layout_(asset.Layout()) {
   RELIT_REQUIRE(static_cast<int>(asset_.partition_models.size()) == layout_.partition_count(),
                 "asset: ", asset_.partition_models.size(), " partitions listed, the layout has ",
                 layout_.partition_count());
