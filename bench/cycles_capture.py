@@ -44,6 +44,9 @@ import time
 import bpy
 from mathutils import Matrix, Vector
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from cycles_settings import configure_cycles  # noqa: E402 (beside this script)
+
 
 def parse_args():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
@@ -170,41 +173,8 @@ def build_scene(spec):
         image.colorspace_settings.name = "Non-Color"
         envmaps[name] = image
 
-    r = scene.render
-    r.engine = "CYCLES"
-    c = scene.cycles
-    c.device = "CPU"
-    c.use_adaptive_sampling = False
-    c.use_denoising = False
-    c.use_animated_seed = False
-    c.max_bounces = spec["max_bounces"]
-    c.diffuse_bounces = spec["max_bounces"]
-    c.glossy_bounces = spec["max_bounces"]
-    c.transmission_bounces = 0
-    c.volume_bounces = 0
-    c.transparent_max_bounces = 8
-    c.min_light_bounces = 0
-    c.blur_glossy = 0.0
-    c.light_sampling_threshold = 0.0
-    c.sample_clamp_direct = 0.0
-    c.sample_clamp_indirect = 0.0
-    c.caustics_reflective = True
-    c.caustics_refractive = True
-    c.pixel_filter_type = "BOX"
-    c.filter_width = 1.0
-    r.threads_mode = "FIXED"
-    r.threads = spec["threads"]
-    r.resolution_percentage = 100
-    r.pixel_aspect_x = r.pixel_aspect_y = 1.0
-    r.use_persistent_data = True  # keep the BVH between jobs
-    scene.view_settings.view_transform = "Standard"
-    scene.view_settings.look = "None"
-    scene.view_settings.exposure = 0.0
-    scene.view_settings.gamma = 1.0
-    settings = r.image_settings
-    settings.file_format = "OPEN_EXR"
-    settings.color_depth = "32"
-    settings.exr_codec = "ZIP"
+    configure_cycles(scene, spec["max_bounces"], spec["threads"], transparent_max_bounces=8)
+    scene.render.use_persistent_data = True  # keep the BVH between jobs
     return scene, cam, world, background, env, envmaps, objects
 
 

@@ -46,6 +46,9 @@ import time
 import bpy
 from mathutils import Matrix, Vector
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from cycles_settings import configure_cycles  # noqa: E402 (beside this script)
+
 
 def parse_args():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
@@ -158,46 +161,14 @@ def add_point_light(scene, position, intensity):
 
 
 def configure_render(scene, args):
-    scene.render.engine = "CYCLES"
-    cycles = scene.cycles
-    cycles.device = "CPU"
-    cycles.samples = args.spp
-    cycles.use_adaptive_sampling = False
-    cycles.use_denoising = False
-    cycles.seed = args.seed
-    cycles.use_animated_seed = False
-    cycles.max_bounces = args.max_bounces
-    cycles.diffuse_bounces = args.max_bounces
-    cycles.glossy_bounces = args.max_bounces
-    cycles.transmission_bounces = 0
-    cycles.volume_bounces = 0
-    cycles.transparent_max_bounces = 0
-    cycles.min_light_bounces = 0
-    cycles.blur_glossy = 0.0
-    cycles.light_sampling_threshold = 0.0  # no probabilistic skipping of dim light samples
-    cycles.sample_clamp_direct = 0.0
-    cycles.sample_clamp_indirect = 0.0
-    cycles.caustics_reflective = True
-    cycles.caustics_refractive = True
-    cycles.pixel_filter_type = "BOX"
-    cycles.filter_width = 1.0
-    scene.render.threads_mode = "FIXED"
-    scene.render.threads = args.threads
+    configure_cycles(scene, args.max_bounces, args.threads, transparent_max_bounces=0)
+    scene.cycles.samples = args.spp
+    scene.cycles.seed = args.seed
     scene.render.resolution_x = args.width
     scene.render.resolution_y = args.height
-    scene.render.resolution_percentage = 100
-    scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
     scene.render.film_transparent = False
     scene.render.use_persistent_data = False
-    scene.view_settings.view_transform = "Standard"
-    scene.view_settings.look = "None"
-    scene.view_settings.exposure = 0.0
-    scene.view_settings.gamma = 1.0
-    settings = scene.render.image_settings
-    settings.file_format = "OPEN_EXR"
-    settings.color_mode = "RGBA"
-    settings.color_depth = "32"
-    settings.exr_codec = "ZIP"
+    scene.render.image_settings.color_mode = "RGBA"
     # Black world: relit's benchmark scene has no environment light.
     world = bpy.data.worlds.new("black")
     world.use_nodes = False
