@@ -87,15 +87,7 @@ int Run(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   SetVerbosity(ParseLogLevel(log_level));
 
-  synth::SynthOptions options;
-  {
-    std::string size = "demo";
-    OptionsReader::FromFile(config).Read("size", &size);
-    options = synth::SynthOptions::ForSize(size);
-    OptionsReader reader = OptionsReader::FromFile(config);
-    ReadOptions(reader, &options);
-    options.size = size;
-  }
+  synth::SynthOptions options = synth::SynthOptions::FromFile(config, "", "demo");
   if (frames > 0) {
     options.frames_per_video = frames;
     options.light_frames_per_video = (frames * 11 + 5) / 10;

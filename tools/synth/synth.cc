@@ -410,21 +410,7 @@ int RunSynth(int argc, char** argv) {
   SetVerbosity(ParseLogLevel(log_level));
 
   // Size defaults first (the size may come from the file), then the file, then flags.
-  std::string chosen_size = size;
-  std::unique_ptr<OptionsReader> reader;
-  if (!config.empty()) {
-    reader = std::make_unique<OptionsReader>(OptionsReader::FromFile(config));
-    if (chosen_size.empty()) {
-      std::string file_size = "tiny";
-      OptionsReader probe = OptionsReader::FromFile(config);
-      probe.Read("size", &file_size);
-      chosen_size = file_size;
-    }
-  }
-  if (chosen_size.empty()) chosen_size = "tiny";
-  SynthOptions options = SynthOptions::ForSize(chosen_size);
-  if (reader) ReadOptions(*reader, &options);
-  options.size = chosen_size;
+  SynthOptions options = SynthOptions::FromFile(config, size, "tiny");
   if (!preset.empty()) options.preset = preset;
   if (!mesh.empty()) options.mesh_path = mesh;
   if (seed_option->count() > 0) options.seed = seed;

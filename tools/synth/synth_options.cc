@@ -112,6 +112,22 @@ SynthOptions SynthOptions::ForSize(const std::string& size) {
   return o;
 }
 
+SynthOptions SynthOptions::FromFile(const std::string& config, const std::string& size,
+                                   const std::string& default_size) {
+  std::string chosen_size = size;
+  if (chosen_size.empty()) {
+    chosen_size = default_size;
+    if (!config.empty()) OptionsReader::FromFile(config).Read("size", &chosen_size);
+  }
+  SynthOptions options = ForSize(chosen_size);
+  if (!config.empty()) {
+    OptionsReader reader = OptionsReader::FromFile(config);
+    ReadOptions(reader, &options);
+  }
+  options.size = chosen_size;
+  return options;
+}
+
 RELIT_OPTION_FIELDS(SynthOptions,
     .Add("preset", &S::preset, PresetNames(), "the scene (see \"Presets\" in docs/synthetic.md)")
     .Add("mesh_path", &S::mesh_path, "preset mesh: OBJ or PLY file (`--mesh`)")

@@ -1,7 +1,8 @@
 // Options of relit-synth: preset, size, seed and every knob of the simulated
 // capture. Defaults depend on the size ("tiny", "demo", "full"): build with
 // SynthOptions::ForSize(), then ReadOptions() a YAML file on top (the field
-// table in synth_options.cc; unknown keys are errors), then CheckOptions().
+// table in synth_options.cc; unknown keys are errors; SynthOptions::FromFile
+// does both, the size from the file if need be), then CheckOptions().
 #pragma once
 
 #include <cstdint>
@@ -128,6 +129,9 @@ struct SynthOptions {
 
   // Defaults for a size; throws relit::Error for an unknown size.
   static SynthOptions ForSize(const std::string& size);
+  // A --config file ("" = none) read on the defaults of a size: `size` when
+  // not empty, else the file's own `size:`, else `default_size`.
+  static SynthOptions FromFile(const std::string& config, const std::string& size, const std::string& default_size);
   static const OptionFields<SynthOptions>& Fields();
   void Check() const;  // across fields; ranges and choices: CheckOptions
 

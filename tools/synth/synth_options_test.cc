@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include "core/test_dir.h"
 #include "tools/synth/synth.h"
 
 namespace relit::synth {
@@ -104,6 +105,25 @@ TEST(SynthOptions, YamlUnknownKeysAndTypesAreErrors) {
   EXPECT_EQ(o.board.dictionary, "DICT_APRILTAG_36h11");
   EXPECT_NO_THROW(CheckOptions(o));
   EXPECT_EQ(OptionsToJson(o)["board"]["squares_x"], 9);
+}
+
+class SynthOptionsFile : public test_support::TempDirTest {
+ protected:
+  SynthOptionsFile() : TempDirTest("relit_synth_file_") {}
+};
+
+TEST_F(SynthOptionsFile, ReadOnTheDefaultsOfItsSize) {
+  const std::string config = (root_ / "demo.yaml").string();
+  std::ofstream(config) << "size: demo\nseed: 9\n";
+  const SynthOptions demo = SynthOptions::FromFile(config, "", "tiny");  // the file's size
+  EXPECT_EQ(demo.size, "demo");
+  EXPECT_EQ(demo.width_px, SynthOptions::ForSize("demo").width_px);
+  EXPECT_EQ(demo.seed, 9u);
+  const SynthOptions tiny = SynthOptions::FromFile(config, "tiny", "full");  // the given size wins
+  EXPECT_EQ(tiny.size, "tiny");
+  EXPECT_EQ(tiny.width_px, SynthOptions::ForSize("tiny").width_px);
+  EXPECT_EQ(tiny.seed, 9u);
+  EXPECT_EQ(SynthOptions::FromFile("", "", "full").width_px, SynthOptions::ForSize("full").width_px);
 }
 
 TEST(SynthOptions, CommandLineRejectsBadInput) {
