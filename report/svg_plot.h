@@ -45,7 +45,7 @@ struct PlotOptions {
   // Fixed axis ranges (NaN = from the data).
   double x_min = NAN, x_max = NAN, y_min = NAN, y_max = NAN;
   // Outlines drawn under the data (e.g. the board), in data coordinates.
-  std::vector<std::vector<Eigen::Vector2d>> outlines;
+  std::vector<std::vector<Eigen::Vector2d>> outlines = {};
 };
 
 // A complete SVG document. Series without a finite point are listed in the
