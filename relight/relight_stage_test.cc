@@ -2,6 +2,7 @@
 // train -> render, the learning check against the cues-only baseline, exact
 // resume, and errors for missing inputs.
 #include <chrono>
+#include <functional>
 #include <filesystem>
 #include <fstream>
 
@@ -45,6 +46,33 @@ TrainStageOptions SmallTraining(int steps) {
   t.optimizer.seed = 5;
   t.optimizer.threads = 2;
   return t;
+}
+
+// Pooled metrics of `predict(cue frame)` against the plan's frames `indices`.
+ImageMetrics ScoreFrames(const std::string& dir, const Plan& plan, const std::vector<int>& indices,
+                         const std::function<Image(const Image&)>& predict) {
+  std::vector<ImageMetrics> metrics;
+  for (int index : indices) {
+    const PlanFrame& f = plan.frames[index];
+    metrics.push_back(CompareToReference(predict(ReadCueFrame(dir + "/" + f.cues)), ReadImage(dir + "/" + f.image),
+                                         ReadImage(dir + "/" + f.matte)));
+  }
+  return PoolMetrics(metrics);
+}
+
+ImageMetrics ScoreModel(const std::string& dir, const Plan& plan, const std::vector<int>& indices, DnlModel& model) {
+  return ScoreFrames(dir, plan, indices, [&](const Image& cues) { return RenderFrame(model, CueFrameToBatch(cues)); });
+}
+
+// The cues-only baseline (per-texel least squares of the 5 cues) fitted on
+// the plan's training frames.
+CuesOnlyBaseline FitCuesOnly(const std::string& dir, const Plan& plan) {
+  CuesOnlyBaseline baseline(SmallModel().texture_resolution_px);
+  testing::ForEachTrainFrame(dir, plan, [&](const Image& cues, const Image& image, const Image& matte) {
+    baseline.Accumulate(cues, image, matte);
+  });
+  baseline.Solve();
+  return baseline;
 }
 
 class RelightStageTest : public ::testing::Test {
@@ -110,11 +138,7 @@ TEST_F(RelightStageTest, TrainedModelBeatsCuesOnlyBaselineOnHeldOutFrames) {
   ASSERT_FALSE(result.skipped);
 
   const Plan plan = ReadPlan(dir_ + "/relight/plan/plan.json");
-  CuesOnlyBaseline baseline(SmallModel().texture_resolution_px);
-  testing::ForEachTrainFrame(dir_, plan, [&](const Image& cues, const Image& image, const Image& matte) {
-    baseline.Accumulate(cues, image, matte);
-  });
-  baseline.Solve();
+  const CuesOnlyBaseline baseline = FitCuesOnly(dir_, plan);
   // The smooth fit the model starts from (train.cue_fit defaults).
   CueTextureFit smooth_fit(SmallModel().texture_resolution_px, training.optimizer.cue_fit);
   testing::ForEachTrainFrame(dir_, plan, [&](const Image& cues, const Image& image, const Image& matte) {
@@ -130,27 +154,13 @@ TEST_F(RelightStageTest, TrainedModelBeatsCuesOnlyBaselineOnHeldOutFrames) {
   std::vector<Batch> train_frames;
   for (int index : plan.partitions[0].train_frames) train_frames.push_back(LoadPlanFrame(dir_, plan.frames[index]));
   WarmStartCueRegression(untrained.model(), train_frames, training.optimizer.cue_fit);
-  std::vector<ImageMetrics> model_metrics, untrained_metrics, baseline_metrics, smooth_metrics;
-  for (int index : plan.partitions[0].validation_frames) {
-    const PlanFrame& f = plan.frames[index];
-    const Image cues = ReadCueFrame(dir_ + "/" + f.cues);
-    const Image target = ReadImage(dir_ + "/" + f.image);
-    const Image matte = ReadImage(dir_ + "/" + f.matte);
-    const Batch batch = CueFrameToBatch(cues);
-    model_metrics.push_back(CompareToReference(RenderFrame(trained, batch), target, matte));
-    untrained_metrics.push_back(CompareToReference(RenderFrame(untrained.model(), batch), target, matte));
-    baseline_metrics.push_back(CompareToReference(baseline.Predict(cues), target, matte));
-    smooth_metrics.push_back(CompareToReference(smooth_fit.Predict(cues), target, matte));
-  }
-  std::vector<ImageMetrics> fit_metrics;
-  for (int index : plan.partitions[0].train_frames) {
-    const PlanFrame& f = plan.frames[index];
-    fit_metrics.push_back(CompareToReference(RenderFrame(trained, CueFrameToBatch(ReadCueFrame(dir_ + "/" + f.cues))),
-                                             ReadImage(dir_ + "/" + f.image), ReadImage(dir_ + "/" + f.matte)));
-  }
-  std::printf("training frames PSNR: trained %.2f dB\n", PoolMetrics(fit_metrics).psnr_db);
-  const ImageMetrics ours = PoolMetrics(model_metrics), before = PoolMetrics(untrained_metrics),
-                     theirs = PoolMetrics(baseline_metrics), smooth = PoolMetrics(smooth_metrics);
+  const std::vector<int>& held_out = plan.partitions[0].validation_frames;
+  const ImageMetrics ours = ScoreModel(dir_, plan, held_out, trained),
+                     before = ScoreModel(dir_, plan, held_out, untrained.model()),
+                     theirs = ScoreFrames(dir_, plan, held_out, [&](const Image& c) { return baseline.Predict(c); }),
+                     smooth = ScoreFrames(dir_, plan, held_out, [&](const Image& c) { return smooth_fit.Predict(c); });
+  std::printf("training frames PSNR: trained %.2f dB\n",
+              ScoreModel(dir_, plan, plan.partitions[0].train_frames, trained).psnr_db);
   std::printf("held-out PSNR: trained %.2f dB (MAE %.4f, alpha MAE %.4f), step 0 %.2f dB (alpha MAE %.4f), "
               "smooth cue fit %.2f dB, cues-only baseline %.2f dB (MAE %.4f)\n",
               ours.psnr_db, ours.mae, ours.alpha_mae, before.psnr_db, before.alpha_mae, smooth.psnr_db,
@@ -166,6 +176,42 @@ TEST_F(RelightStageTest, TrainedModelBeatsCuesOnlyBaselineOnHeldOutFrames) {
   EXPECT_LT(ours.mae, theirs.mae);
   EXPECT_LT(ours.alpha_mae, 0.85 * before.alpha_mae);  // better than the proxy's own coverage
   EXPECT_NEAR(result.val_psnr_db, ours.psnr_db, 3.0);  // the stage's own validation agrees (subset of frames)
+}
+
+// The learning check with true inputs (issue 24's input ladder, rung a):
+// the ground-truth mesh as the proxy, true cameras, flash and mattes,
+// targets at 128 spp and cues at 64 spp, so that neither the proxy nor the
+// render noise limits the fit. The model must reproduce its training frames
+// (>= 28 dB) and beat the cues-only baseline on held-out frames by 2 dB.
+TEST(RelightTrueInputs, ModelFitsItsTrainingFramesAndBeatsCuesOnlyOnHeldOutFrames) {
+  const std::string dir =
+      (fs::temp_directory_path() / ("relit_relight_true_inputs_" + std::to_string(::getpid()))).string();
+  testing::TestWorkspaceOptions o;
+  o.proxy_offset_m = 0;
+  o.samples_per_pixel = 128;
+  testing::MakeTestWorkspace(dir, o);
+  CueStageOptions cues;
+  cues.samples_per_pixel = 64;
+  RunRecord record("test");
+  testing::RunCuesAndSinglePartitionPlan(dir, cues, record);
+  const TrainStageResult result = RunTrainStage(dir, 0, SmallModel(), SmallTraining(300), true, record);
+  ASSERT_FALSE(result.skipped);
+
+  const Plan plan = ReadPlan(dir + "/relight/plan/plan.json");
+  const CuesOnlyBaseline baseline = FitCuesOnly(dir, plan);
+  DnlModel trained = LoadModel(fs::path(dir) / "relight/partitions/00/checkpoint");
+  const ImageMetrics fit = ScoreModel(dir, plan, plan.partitions[0].train_frames, trained),
+                     ours = ScoreModel(dir, plan, plan.partitions[0].validation_frames, trained),
+                     theirs = ScoreFrames(dir, plan, plan.partitions[0].validation_frames,
+                                          [&](const Image& c) { return baseline.Predict(c); });
+  std::printf("true inputs: training frames %.2f dB, held-out %.2f dB, cues-only %.2f dB\n", fit.psnr_db,
+              ours.psnr_db, theirs.psnr_db);
+  // Measured (2026-11-26): training frames 29.9 dB, held-out 24.5, cues-only
+  // 16.7. With 8-spp cues the same run gives 24.4 / 19.0: cue noise, not
+  // the model, is what limits it then.
+  EXPECT_GE(fit.psnr_db, 28.0);
+  EXPECT_GT(ours.psnr_db, theirs.psnr_db + 2.0);
+  fs::remove_all(dir);
 }
 
 // Training 40 steps in two runs (20, then continued to 40) logs the same
