@@ -270,13 +270,21 @@ CapturePlan MakeCapturePlan(const SynthOptions& o, const SynthScene& scene) {
                   o.eval_min_angle_deg, " deg away from the phone-V path: lower eval_min_angle_deg");
   }
   // Interpolation views: phone V's own path at random times between its
-  // frames, as DNL evaluates on held-out frames of the capture. Their own
-  // seed stream, after the extrapolation views, leaves those and the lights
-  // as they were.
+  // frames, as DNL evaluates on held-out frames of the capture, and only
+  // while phone L records too: a phone V frame without flash frames around
+  // it is not part of the capture (relit-capture drops it). Their own seed
+  // stream, after the extrapolation views, leaves those and the lights as
+  // they were.
   uint64_t interpolation_state = SubSeed(o.seed, kEvalInterpolation);
-  const double path_duration_s = plan.view.frames.empty() ? 0.0 : plan.view.frames.back().t_common_s;
+  double usable_begin_s = 0, usable_end_s = 0;
+  if (!plan.view.frames.empty() && !plan.light.frames.empty()) {
+    usable_begin_s = std::max(plan.view.frames.front().t_common_s, plan.light.frames.front().t_common_s);
+    usable_end_s = std::min(plan.view.frames.back().t_common_s, plan.light.frames.back().t_common_s);
+  }
+  RELIT_REQUIRE(o.eval_interpolation_views == 0 || usable_end_s > usable_begin_s,
+                "the two phones' videos do not overlap: no phone V frame has flash frames around it");
   for (int v = 0; v < o.eval_interpolation_views; ++v) {
-    const double t_s = path_duration_s * UniformFromState(&interpolation_state);
+    const double t_s = usable_begin_s + (usable_end_s - usable_begin_s) * UniformFromState(&interpolation_state);
     EvalView view;
     view.name = Numbered("interp", v);
     view.set = "interpolation";

@@ -1,6 +1,7 @@
 #include "tools/synth/trajectory.h"
 
 #include <cmath>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -156,6 +157,42 @@ TEST(CapturePlan, PhoneLHasItsOwnFrameCountAndRate) {
   EXPECT_NEAR(plan.light.frames[30].t_common_s,
               30 * 1001.0 / 30000 + plan.light_start_offset_s, 1e-12);
   EXPECT_NEAR(plan.view.frames[29].t_own_s, 29 / 30.0, 1e-12);
+}
+
+// Interpolation views lie on phone V's path where phone L records too (the
+// frames relit-capture keeps), for offsets of both signs; the demo's usable
+// span covers most of its turn.
+TEST(CapturePlan, InterpolationViewsLieWhereBothPhonesRecord) {
+  for (const char* size : {"tiny", "demo"}) {
+    SynthOptions options = SynthOptions::ForSize(size);
+    options.out = "unused";
+    options.eval_interpolation_views = 12;
+    SynthScene scene;
+    scene.target_world = Eigen::Vector3d(0, 0, 0.03);
+    for (uint64_t seed = 1; seed <= 4; ++seed) {
+      options.seed = seed;
+      const CapturePlan plan = MakeCapturePlan(options, scene);
+      const double begin_s = std::max(plan.view.frames.front().t_common_s, plan.light.frames.front().t_common_s);
+      const double end_s = std::min(plan.view.frames.back().t_common_s, plan.light.frames.back().t_common_s);
+      if (std::string(size) == "demo") {
+        EXPECT_GT(end_s - begin_s, 0.85 * options.duration_s()) << "seed " << seed;
+      }
+      for (const EvalView& view : plan.eval_views) {
+        if (view.set != "interpolation") continue;
+        const Eigen::Vector3d centre = view.cam_from_world.Inverse().translation;
+        const FramePlan* nearest = nullptr;
+        for (const FramePlan& f : plan.view.frames) {
+          if (!nearest || (f.cam_from_world.Inverse().translation - centre).norm() <
+                              (nearest->cam_from_world.Inverse().translation - centre).norm()) {
+            nearest = &f;
+          }
+        }
+        const double frame_s = 1.0 / options.fps;
+        EXPECT_GE(nearest->t_common_s, begin_s - frame_s) << size << " seed " << seed << " " << view.name;
+        EXPECT_LE(nearest->t_common_s, end_s + frame_s) << size << " seed " << seed << " " << view.name;
+      }
+    }
+  }
 }
 
 // The tiny preset's phones differ in size; a rolling shutter reads rows
