@@ -70,7 +70,7 @@ struct EvalOptions {
   // nothing brighter (relit-synth: value = clamp(exposure x radiance);
   // relit-capture linearises sRGB / gamma 2.2 video to 1 = white).
   // capture.json records the transfer, not this level. 0 = no clip.
-  double clip_radiance = 1.0;
+  double clip_radiance = kCaptureWhiteLevel;
   bool write_images = true;         // PNGs of renders, error maps and GT
 
   static const OptionFields<EvalOptions>& Fields();

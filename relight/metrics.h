@@ -33,6 +33,10 @@ ImageMetrics PoolMetrics(const std::vector<ImageMetrics>& metrics);
 
 double PsnrFromMse(double mse);
 
+// The captured frames' linear white level: relit-capture linearises sRGB /
+// gamma 2.2 video to 1 = white, so nothing captured is brighter.
+constexpr double kCaptureWhiteLevel = 1.0;
+
 // Clamps the RGB channels (the first 3; alpha and others untouched) to
 // [0, white_level]: what an 8-bit capture can hold once linearised (its
 // linear white level, 1 for SDR sRGB video). white_level <= 0: unchanged.

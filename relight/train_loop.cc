@@ -77,8 +77,10 @@ Batch Concatenate(const std::vector<const Batch*>& frames) {
 ImageMetrics Validate(DnlModel& model, const std::vector<Batch>& frames) {
   std::vector<ImageMetrics> metrics;
   for (const Batch& frame : frames) {
-    const Image predicted = RenderFrame(model, frame);
-    const Image target = TensorToImage(frame.target_rgb, {"R", "G", "B"});
+    Image predicted = RenderFrame(model, frame);
+    Image target = TensorToImage(frame.target_rgb, {"R", "G", "B"});
+    ClipRadiance(&predicted, kCaptureWhiteLevel);
+    ClipRadiance(&target, kCaptureWhiteLevel);
     const Image matte = TensorToImage(frame.target_matte, {"A"});
     metrics.push_back(CompareToReference(predicted, target, matte));
   }

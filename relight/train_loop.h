@@ -34,7 +34,10 @@ class FrameOrder {
 // Frames of equal size stacked along the batch dimension.
 Batch Concatenate(const std::vector<const Batch*>& frames);
 
-// Whole-frame metrics of `model` on frames with targets, pooled.
+// Whole-frame metrics of `model` on captured frames with targets, pooled;
+// prediction and target clipped at the capture's white level first, as eval does
+// (a few unclipped highlights far above it otherwise decide the figure:
+// -0.1 dB on a frame that scores 14.6 clipped).
 ImageMetrics Validate(DnlModel& model, const std::vector<Batch>& frames);
 
 // The residual model's two corrections (model.h: renderer and mask networks
