@@ -282,7 +282,8 @@ CapturePlan MakeCapturePlan(const SynthOptions& o, const SynthScene& scene) {
     usable_end_s = std::min(plan.view.frames.back().t_common_s, plan.light.frames.back().t_common_s);
   }
   RELIT_REQUIRE(o.eval_interpolation_views == 0 || usable_end_s > usable_begin_s,
-                "the two phones' videos do not overlap: no phone V frame has flash frames around it");
+                "the two phones' videos do not overlap (no phone V frame has flash frames around it): lower "
+                "audio_offset_max_s or raise frames_per_video");
   for (int v = 0; v < o.eval_interpolation_views; ++v) {
     const double t_s = usable_begin_s + (usable_end_s - usable_begin_s) * UniformFromState(&interpolation_state);
     EvalView view;
