@@ -90,7 +90,7 @@ const json& Row(const json& eval, const std::string& method, const std::string& 
 
 TEST_F(EvalTest, ScoresModelAndCuesOnlyPerLightTypeAndWritesImages) {
   const auto start = std::chrono::steady_clock::now();
-  // Eval cues at the training cues' 4 spp: the networks' output shifts with the cues' noise level.
+  // Eval cues at the training cues' 4 spp (fewer would warn).
   const std::string config = dir_ + "/relight.yaml";
   std::ofstream(config) << "render: {samples_per_pixel: 16}\neval: {samples_per_pixel: 4}\n";
   ASSERT_EQ(RunCli({"relit-relight", "eval", "--workspace", dir_ + "/ws", "--config", config, "--truth", truth_,
