@@ -148,7 +148,9 @@ RELIT_OPTION_FIELDS(RefineOptions,
     .Add("support_band", &S::support_band, 1e-5, 1.0, "depth within this fraction: the view sees the vertex")
     .Add("min_facing_cosine", &S::min_facing_cosine, 0.0, 1.0, "views at grazing angles or behind do not judge")
     .Add("data_weight", &S::data_weight, 0.0, 1.0, "share of the offset to the seen surface moved per iteration")
-    .Add("smoothing", &S::smoothing, 0.0, 1.0, "Taubin lambda per iteration (mu = -1.02 lambda; 0 = none)"))
+    .Add("smoothing", &S::smoothing, 0.0, 1.0, "Taubin lambda per iteration (mu = -1.02 lambda; 0 = none)")
+    .Add("final_smoothing_iterations", &S::final_smoothing_iterations, 0, 10000,
+         "Taubin passes (lambda = smoothing) after the last iteration, no data term"))
 
 RELIT_OPTION_FIELDS(TrimapOptions,
     .Add("band_px", &S::band_px, 0, 1000, "unknown band half width, pixels (0 = automatic, below)")

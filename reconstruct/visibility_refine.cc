@@ -177,6 +177,13 @@ render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const
     progress.Advance();
   }
 
+  // Smoothing alone: each iteration's pull to the noisy depths undoes its own pass.
+  for (int pass = 0; options.smoothing > 0 && pass < options.final_smoothing_iterations; ++pass) {
+    SmoothStep(rings, static_cast<float>(options.smoothing), &positions);
+    SmoothStep(rings, static_cast<float>(-1.02 * options.smoothing), &positions);
+    for (Eigen::Vector3f& p : positions) p.z() = std::max(p.z(), static_cast<float>(floor_z_m));
+  }
+
   render::TriangleMesh refined = mesh;
   double move_sum = 0;
   for (size_t v = 0; v < n; ++v) {
