@@ -61,8 +61,10 @@ RELIT_OPTION_FIELDS(RefineOptions,
          "robust loss scale of that second solve (0: huber_px)")
     .Add("max_iterations", &S::max_iterations, 1, 100000, "Ceres iterations")
     .Add("linear_solver", &S::linear_solver, {"auto", "dense_schur", "sparse_schur", "iterative_schur"},
-         "Ceres linear solver (auto: dense Schur up to dense_schur_max_frames frames)")
-    .Add("dense_schur_max_frames", &S::dense_schur_max_frames, 0, 1000000, "auto's switch to sparse Schur")
+         "Ceres linear solver (auto: dense Schur with SfM points up to dense_schur_max_frames frames, "
+         "else sparse Schur)")
+    .Add("dense_schur_max_frames", &S::dense_schur_max_frames, 0, 1000000,
+         "auto's switch to sparse Schur (400 before 2026-11-27)")
     .Add("function_tolerance", &S::function_tolerance, 1e-16, 0.1,
          "Ceres stops when the cost changes by less than this fraction")
     .Add("first_function_tolerance", &S::first_function_tolerance, 0.0, 0.1,
