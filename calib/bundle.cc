@@ -315,6 +315,7 @@ BundleStats RefineBundle(BundleProblem* problem, const BundleOptions& options) {
   Inliers inliers = AllInliers(*problem);
   BundleOptions first_options = options;
   if (options.first_function_tolerance > 0) first_options.function_tolerance = options.first_function_tolerance;
+  if (options.first_max_iterations > 0) first_options.max_iterations = options.first_max_iterations;
   ceres::Solver::Summary first = Solve(problem, inliers, first_options);
   Evaluate(*problem, options.outlier_px, &inliers);
   BundleOptions final_options = options;

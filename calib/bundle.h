@@ -61,6 +61,7 @@ struct BundleOptions {
   // First solve (0: function_tolerance): it only has to bring the outliers
   // out for the second solve to drop.
   double first_function_tolerance = 0;
+  int first_max_iterations = 0;  // the first solve's iteration cap (0: max_iterations)
 };
 
 struct BundleStats {

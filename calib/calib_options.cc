@@ -69,6 +69,8 @@ RELIT_OPTION_FIELDS(RefineOptions,
          "Ceres stops when the cost changes by less than this fraction")
     .Add("first_function_tolerance", &S::first_function_tolerance, 0.0, 0.1,
          "the same for the first solve, before outliers are dropped (0: function_tolerance)")
+    .Add("first_max_iterations", &S::first_max_iterations, 0, 100000,
+         "iterations of that first solve at most (0: max_iterations)")
     .Add("max_corner_rms_px", &S::max_corner_rms_px, 0.01, 1000.0, "board-corner RMS above this: rejected")
     .Add("max_ratio_error", &S::max_ratio_error, 0.001, 1.0,
          "|measured / specified marker-to-square ratio - 1| above this: rejected"))
