@@ -113,12 +113,14 @@ Inliers AllInliers(const BundleProblem& p) {
   return in;
 }
 
-// Solver settings: the Schur complement's size is 7 per frame (pose) plus the
-// lenses, dense up to a few hundred frames, sparse beyond (frames share
-// points only with their neighbours in time and direction).
-void ConfigureSolver(const BundleOptions& o, int frames, ceres::Solver::Options* options) {
+// Solver settings: the Schur complement's size is 6 per frame (pose) plus the
+// lenses. Without SfM points (board corners only) it is block diagonal apart
+// from the lens rows: sparse Schur (990 frames: 0.6 s against dense 37.6 s).
+// With points it is nearly dense (long tracks, cross pairs, the lenses):
+// dense Schur up to dense_schur_max_frames, sparse beyond.
+void ConfigureSolver(const BundleOptions& o, int frames, bool has_points, ceres::Solver::Options* options) {
   const std::string& s = o.linear_solver;
-  if (s == "dense_schur" || (s == "auto" && frames <= o.dense_schur_max_frames)) {
+  if (s == "dense_schur" || (s == "auto" && has_points && frames <= o.dense_schur_max_frames)) {
     options->linear_solver_type = ceres::DENSE_SCHUR;
   } else if (s == "iterative_schur") {
     options->linear_solver_type = ceres::ITERATIVE_SCHUR;
@@ -203,7 +205,10 @@ ceres::Solver::Summary Solve(BundleProblem* p, const Inliers& inliers, const Bun
     }
   }
   ceres::Solver::Options options;
-  ConfigureSolver(o, static_cast<int>(std::count(used_frame.begin(), used_frame.end(), true)), &options);
+  bool has_points = false;
+  for (auto& point : points) has_points = has_points || problem.HasParameterBlock(point.data());
+  ConfigureSolver(o, static_cast<int>(std::count(used_frame.begin(), used_frame.end(), true)), has_points,
+                  &options);
   if (options.linear_solver_type != ceres::DENSE_SCHUR && !points.empty()) {
     // Points first: Schur elimination leaves the reduced camera system, whose
     // sparsity follows the frames that share points.
@@ -310,6 +315,7 @@ BundleStats RefineBundle(BundleProblem* problem, const BundleOptions& options) {
   Inliers inliers = AllInliers(*problem);
   BundleOptions first_options = options;
   if (options.first_function_tolerance > 0) first_options.function_tolerance = options.first_function_tolerance;
+  if (options.first_max_iterations > 0) first_options.max_iterations = options.first_max_iterations;
   ceres::Solver::Summary first = Solve(problem, inliers, first_options);
   Evaluate(*problem, options.outlier_px, &inliers);
   BundleOptions final_options = options;

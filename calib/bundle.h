@@ -56,11 +56,12 @@ struct BundleOptions {
   int max_iterations = 100;
   int threads = 0;
   std::string linear_solver = "auto";  // auto | dense_schur | sparse_schur | iterative_schur
-  int dense_schur_max_frames = 100;    // auto: dense Schur up to this many posed frames
+  int dense_schur_max_frames = 1000;   // auto: dense Schur with points up to this many posed frames (calib's refine.*)
   double function_tolerance = 1e-6;
   // First solve (0: function_tolerance): it only has to bring the outliers
   // out for the second solve to drop.
   double first_function_tolerance = 0;
+  int first_max_iterations = 0;  // the first solve's iteration cap (0: max_iterations)
 };
 
 struct BundleStats {

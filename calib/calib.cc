@@ -44,6 +44,7 @@ BundleOptions ToBundleOptions(const CalibOptions& o, bool with_points) {
   b.dense_schur_max_frames = o.refine.dense_schur_max_frames;
   b.function_tolerance = o.refine.function_tolerance;
   b.first_function_tolerance = o.refine.first_function_tolerance;
+  b.first_max_iterations = o.refine.first_max_iterations;
   return b;
 }
 

@@ -61,12 +61,16 @@ RELIT_OPTION_FIELDS(RefineOptions,
          "robust loss scale of that second solve (0: huber_px)")
     .Add("max_iterations", &S::max_iterations, 1, 100000, "Ceres iterations")
     .Add("linear_solver", &S::linear_solver, {"auto", "dense_schur", "sparse_schur", "iterative_schur"},
-         "Ceres linear solver (auto: dense Schur up to dense_schur_max_frames frames)")
-    .Add("dense_schur_max_frames", &S::dense_schur_max_frames, 0, 1000000, "auto's switch to sparse Schur")
+         "Ceres linear solver (auto: dense Schur with SfM points up to dense_schur_max_frames frames, "
+         "else sparse Schur)")
+    .Add("dense_schur_max_frames", &S::dense_schur_max_frames, 0, 1000000,
+         "auto's switch to sparse Schur (400 before 2026-11-27)")
     .Add("function_tolerance", &S::function_tolerance, 1e-16, 0.1,
          "Ceres stops when the cost changes by less than this fraction")
     .Add("first_function_tolerance", &S::first_function_tolerance, 0.0, 0.1,
          "the same for the first solve, before outliers are dropped (0: function_tolerance)")
+    .Add("first_max_iterations", &S::first_max_iterations, 0, 100000,
+         "iterations of that first solve at most (0: max_iterations)")
     .Add("max_corner_rms_px", &S::max_corner_rms_px, 0.01, 1000.0, "board-corner RMS above this: rejected")
     .Add("max_ratio_error", &S::max_ratio_error, 0.001, 1.0,
          "|measured / specified marker-to-square ratio - 1| above this: rejected"))

@@ -172,6 +172,7 @@ struct Selection {
   std::vector<int> view_sources;
   std::vector<std::vector<int>> light_of_view;
   std::map<int, int> light_index;  // phone L source frame -> output index
+  int light_candidates = 0;        // phone L frames that could be kept (light_min_spacing_s)
 
   std::vector<int> LightSources() const {
     std::vector<int> sources;
@@ -194,17 +195,28 @@ void ProbeInputs(const CaptureOptions& options, AnalysedVideo* view, AnalysedVid
   }
 }
 
-// Puts phone L's frames on the common clock (phone V's) and returns their
-// times; fails when the two videos do not overlap.
-std::vector<double> PutLightOnViewClock(const CaptureOptions& options, const SyncResult& sync,
-                                        const AnalysedVideo& view, AnalysedVideo* light) {
-  std::vector<double> light_times;
+// The phone L frames that may be kept (light_min_spacing_s apart) and their
+// times on the common clock.
+struct LightCandidates {
+  std::vector<int> frames;    // indices into the phone L video's frames
+  std::vector<double> times_s;
+};
+
+// Puts phone L's frames on the common clock (phone V's) and returns the
+// candidates among them; fails when the two videos do not overlap.
+LightCandidates PutLightOnViewClock(const CaptureOptions& options, const SyncResult& sync,
+                                    const AnalysedVideo& view, AnalysedVideo* light) {
+  std::vector<double> all_times;
   for (Candidate& c : light->frames) {
     c.time_s = sync.ToViewTime(c.source_time_s);
-    light_times.push_back(c.time_s);
+    all_times.push_back(c.time_s);
   }
-  RELIT_REQUIRE(std::is_sorted(light_times.begin(), light_times.end()), "the ", kLightRole, " ",
+  RELIT_REQUIRE(std::is_sorted(all_times.begin(), all_times.end()), "the ", kLightRole, " ",
                 options.light, " has frames out of time order; remux it (ffmpeg -i IN -c copy OUT.mp4)");
+  LightCandidates candidates;
+  candidates.frames = ThinByTime(all_times, options.light_min_spacing_s);
+  for (int i : candidates.frames) candidates.times_s.push_back(all_times[i]);
+  const std::vector<double>& light_times = candidates.times_s;
   const int per_side = options.light_frames_per_side;
   const bool overlap = std::any_of(view.frames.begin(), view.frames.end(), [&](const Candidate& c) {
     return !LightFramesAround(c.time_s, light_times, per_side).empty();
@@ -214,12 +226,13 @@ std::vector<double> PutLightOnViewClock(const CaptureOptions& options, const Syn
                 " s on phone V's clock, offset ", sync.offset_s,
                 " s) do not overlap in time: check --offset-s, or that ", options.view, " and ",
                 options.light, " were filmed together");
-  return light_times;
+  return candidates;
 }
 
 // Frame selection on phone V; the phone L frames follow from it.
-Selection SelectFrames(const CaptureOptions& options, const std::vector<double>& light_times, AnalysedVideo* view) {
+Selection SelectFrames(const CaptureOptions& options, const LightCandidates& light, AnalysedVideo* view) {
   const int per_side = options.light_frames_per_side;
+  const std::vector<double>& light_times = light.times_s;
   RejectBadFrames(&view->frames, options.view_select);
   for (Candidate& c : view->frames) {
     if (c.rejection.empty() && LightFramesAround(c.time_s, light_times, per_side).empty()) {
@@ -228,11 +241,14 @@ Selection SelectFrames(const CaptureOptions& options, const std::vector<double>&
   }
   Subsample(&view->frames, options.view_select);
   Selection selection;
+  selection.light_candidates = static_cast<int>(light.frames.size());
   for (const Candidate& c : view->frames) {
     if (!c.rejection.empty()) continue;
     selection.view_sources.push_back(c.source_frame);
-    selection.light_of_view.push_back(LightFramesAround(c.time_s, light_times, per_side));
-    for (int l : selection.light_of_view.back()) selection.light_index[l] = 0;
+    std::vector<int> around = LightFramesAround(c.time_s, light_times, per_side);
+    for (int& l : around) l = light.frames[l];
+    selection.light_of_view.push_back(around);
+    for (int l : around) selection.light_index[l] = 0;
   }
   RELIT_REQUIRE(!selection.view_sources.empty(), "no phone V frame left after rejection (",
                 RejectionSummary(view->frames), " of ", view->frames.size(),
@@ -240,8 +256,11 @@ Selection SelectFrames(const CaptureOptions& options, const std::vector<double>&
                 "(min_blur_ratio, max_dark_fraction, max_clipped_fraction) in the --config file");
   int next = 0;
   for (auto& [source, index] : selection.light_index) index = next++;
-  spdlog::info("select: phone V {}; phone L: {} frames needed", RejectionSummary(view->frames),
-               selection.light_index.size());
+  spdlog::info("select: phone V {}; phone L: {} frames needed (of {} candidates{})",
+               RejectionSummary(view->frames), selection.light_index.size(), light.frames.size(),
+               options.light_min_spacing_s > 0
+                   ? fmt::format(", at least {} s apart", options.light_min_spacing_s)
+                   : std::string());
   return selection;
 }
 
@@ -286,6 +305,7 @@ nlohmann::json CaptureJson(const CaptureOptions& options, const AnalysedVideo& v
   capture["rejected_view_frames"] = RejectedJson(view.frames);
   capture["counts"] = {{"view", Counts(view.frames)},
                        {"light_usable", light.frames.size()},
+                       {"light_candidates", selection.light_candidates},
                        {"light_kept", light_frames.size()}};
   capture["geometry_frames"] = nlohmann::json::array();
   return capture;
@@ -311,8 +331,9 @@ CaptureSummary RunCaptureImpl(const CaptureOptions& options) {
     AnalyseFrames(&view, options, options.view_select, "analyse view");
     AnalyseFrames(&light, options, options.view_select, "analyse light");
   });
-  const std::vector<double> light_times = PutLightOnViewClock(options, sync, view, &light);
-  const Selection selection = run.Step("select", [&] { return SelectFrames(options, light_times, &view); });
+  const LightCandidates light_candidates = PutLightOnViewClock(options, sync, view, &light);
+  const Selection selection =
+      run.Step("select", [&] { return SelectFrames(options, light_candidates, &view); });
   const std::vector<int> light_sources = selection.LightSources();
   run.Step("write", [&] {
     WriteFrames(view, selection.view_sources, options, run.path(), "view", "view_linear", "write view");

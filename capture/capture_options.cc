@@ -29,7 +29,7 @@ void SyncOptions::Check() const {
 
 RELIT_OPTION_FIELDS(SelectOptions,
     .Add("target_frames", &S::target_frames, 0, 1000000,
-         "keep at most this many frames (`--target-frames`; 0: use target_fps)")
+         "keep at most this many frames (0: use target_fps; `--target-frames` sets view_select's)")
     .Add("target_fps", &S::target_fps, 0.0, 1000.0, "alternatively, at most this many frames per second")
     .Add("blur_window_frames", &S::blur_window_frames, 1, 1000, "neighbours on each side for the blur median")
     .Add("min_blur_ratio", &S::min_blur_ratio, 0.0, 1.0,
@@ -61,6 +61,10 @@ RELIT_OPTION_FIELDS(CaptureOptions,
     .Section("geometry_select", &S::geometry_select)
     .Add("light_frames_per_side", &S::light_frames_per_side, 1, 100,
          "phone L frames kept on each side of a kept phone V frame")
+    .Add("light_min_spacing_s", &S::light_min_spacing_s, 0.0, 1.0,
+         "phone L frames are candidates at most this often (s; 0: every frame): 0.06 keeps every "
+         "other frame of a 30 fps phone L; below 2 x calib's light.max_gap_s (0.1 s), else calib "
+         "marks the lights unreliable")
     .Add("transfer", &S::transfer, {"auto", "srgb", "gamma2.2", "hlg", "pq"},
          "transfer function of the videos (`--transfer`; auto: sRGB, refuse HDR)")
     .Add("max_long_side_px", &S::max_long_side_px, 0, 100000,

@@ -59,6 +59,10 @@ struct CaptureOptions {
   SelectOptions view_select;         // YAML "view"
   SelectOptions geometry_select;     // YAML "geometry_select"
   int light_frames_per_side = 2;     // phone L frames kept on each side of a kept V frame
+  // Phone L frames closer in time than this to the previous candidate are
+  // not candidates (0: every frame is). The light frames then follow the
+  // phone V selection at most at this rate, not the video's frame rate.
+  double light_min_spacing_s = 0;
 
   // "auto" (sRGB for SDR video, refuse HDR), "srgb", "gamma2.2", "hlg", "pq".
   std::string transfer = "auto";

@@ -141,6 +141,23 @@ TEST(FrameSelect, LightFramesAroundATime) {
   EXPECT_TRUE(LightFramesAround(0.41, t, 2).empty());
 }
 
+TEST(FrameSelect, ThinByTimeKeepsFramesAtLeastTheSpacingApart) {
+  std::vector<double> t;
+  const double interval = 1001.0 / 30000.0;  // 29.97 fps
+  for (int i = 0; i < 60; ++i) t.push_back(0.3 + i * interval);
+  EXPECT_EQ(ThinByTime(t, 0).size(), t.size());
+  const std::vector<int> kept = ThinByTime(t, 0.06);
+  ASSERT_EQ(kept.size(), 31u);  // 0, 2, ..., 58 and the last frame, 59
+  EXPECT_EQ(kept.front(), 0);
+  EXPECT_EQ(kept.back(), 59);
+  for (size_t k = 1; k + 1 < kept.size(); ++k) {
+    EXPECT_GE(t[kept[k]] - t[kept[k - 1]], 0.06);
+    EXPECT_LT(t[kept[k]] - t[kept[k - 1]], 0.06 + interval);
+  }
+  EXPECT_EQ(ThinByTime(t, 10.0), (std::vector<int>{0, 59}));
+  EXPECT_TRUE(ThinByTime({}, 0.06).empty());
+}
+
 TEST(Transfer, HdrCurvesHitKnownPoints) {
   EXPECT_NEAR(HlgToSceneLinear(0.5), 1.0 / 12.0, 1e-9);
   EXPECT_NEAR(HlgToSceneLinear(1.0), 1.0, 1e-6);

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -125,6 +126,51 @@ TEST_F(CaptureVideoTest, ManualOffsetOverridesAudio) {
   const nlohmann::json capture = ReadCaptureJson(o.out);
   EXPECT_EQ(capture["sync"]["offset_s"].get<double>(), 0.25);
   EXPECT_TRUE(capture["sync"]["confidence"].is_null());
+}
+
+// Frame budgets: phone L frames are kept only around kept phone V frames (and,
+// with light_min_spacing_s, at most at that rate), each still bracketed as
+// calib's light interpolation needs; the geometry pass follows its own target.
+TEST_F(CaptureVideoTest, LightFramesFollowTheViewSelectionAndGeometryItsOwnTarget) {
+  auto run = [&](const std::string& name, double spacing_s) {
+    CaptureOptions o = TestOptions(In("view.mp4"), In("silent.mp4"), *dir_ / name);
+    o.sync.offset_s = 0.25;
+    o.view_select.target_frames = 100;  // most of the ~113 phone V frames inside phone L's recording
+    o.light_min_spacing_s = spacing_s;
+    o.geometry = In("light.mp4");
+    o.geometry_select.target_frames = 7;
+    RunCaptureImpl(o);
+    return ReadCaptureJson(o.out);
+  };
+  const nlohmann::json all = run("out_budget_all", 0.0);
+  const nlohmann::json thin = run("out_budget_thin", 0.06);
+  for (const nlohmann::json* capture : {&all, &thin}) {
+    const nlohmann::json& c = *capture;
+    EXPECT_EQ(c["view_frames"].size(), 100u);
+    EXPECT_EQ(c["geometry_frames"].size(), 7u);  // its own target, not phone V's
+    std::set<int> used;
+    for (const auto& frame : c["view_frames"]) {
+      const double t = frame["time_s"];
+      double before = -1e9, after = 1e9;
+      for (const auto& l : frame["light_frames"]) {
+        used.insert(l.get<int>());
+        const double tl = c["light_frames"][l.get<int>()]["time_s"];
+        if (tl <= t) before = std::max(before, tl);
+        if (tl >= t) after = std::min(after, tl);
+      }
+      // calib's rule for a reliable light (light.max_gap_s 0.05 s): nearest
+      // phone L frame within 0.05 s, the two around it within 0.1 s.
+      EXPECT_LE(std::min(t - before, after - t), 0.05) << t;
+      EXPECT_LE(after - before, 0.1 + 1e-9) << t;
+    }
+    // Every kept phone L frame places the flash of some kept phone V frame.
+    EXPECT_EQ(used.size(), c["light_frames"].size());
+    EXPECT_EQ(c["counts"]["light_kept"].get<size_t>(), c["light_frames"].size());
+  }
+  EXPECT_EQ(all["counts"]["light_candidates"], all["counts"]["light_usable"]);
+  EXPECT_LT(thin["counts"]["light_candidates"].get<int>(), all["counts"]["light_candidates"].get<int>() * 0.55);
+  EXPECT_LT(thin["light_frames"].size(), all["light_frames"].size() * 0.55);
+  EXPECT_GT(thin["light_frames"].size(), all["light_frames"].size() * 0.4);
 }
 
 TEST_F(CaptureVideoTest, RefusesUnrelatedRecordings) {

@@ -96,6 +96,18 @@ void Subsample(std::vector<Candidate>* candidates, const SelectOptions& o) {
   }
 }
 
+std::vector<int> ThinByTime(const std::vector<double>& times_s, double min_spacing_s) {
+  const int n = static_cast<int>(times_s.size());
+  std::vector<int> kept;
+  for (int i = 0; i < n; ++i) {
+    if (kept.empty() || min_spacing_s <= 0 || i == n - 1 ||
+        times_s[i] - times_s[kept.back()] >= min_spacing_s - 1e-9) {
+      kept.push_back(i);
+    }
+  }
+  return kept;
+}
+
 std::vector<int> LightFramesAround(double t_s, const std::vector<double>& light_times_s,
                                    int per_side) {
   const int n = static_cast<int>(light_times_s.size());

@@ -50,6 +50,12 @@ void RejectBadFrames(std::vector<Candidate>* candidates, const SelectOptions& op
 // are marked not_selected.
 void Subsample(std::vector<Candidate>* candidates, const SelectOptions& options);
 
+// Indices of the frames at times_s (ascending) kept when no two kept frames
+// are closer than min_spacing_s: the first frame, then each frame at least
+// min_spacing_s after the last kept one, and always the last frame (so the
+// time range stays the same). min_spacing_s <= 0 keeps every frame.
+std::vector<int> ThinByTime(const std::vector<double>& times_s, double min_spacing_s);
+
 // Indices (into light_times_s, sorted ascending, common clock) of the phone L
 // frames around time t: `per_side` at or before t and `per_side` at or after
 // (fewer near the ends). Empty when t lies outside [first, last].
