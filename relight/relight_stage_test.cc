@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "core/run_record.h"
+#include "core/test_dir.h"
 #include "core/json_file.h"
 #include "relight/asset.h"
 #include "relight/augment.h"
@@ -183,9 +184,14 @@ TEST_F(RelightStageTest, TrainedModelBeatsCuesOnlyBaselineOnHeldOutFrames) {
 // targets at 128 spp and cues at 64 spp, so that neither the proxy nor the
 // render noise limits the fit. The model must reproduce its training frames
 // (>= 28 dB) and beat the cues-only baseline on held-out frames by 2 dB.
-TEST(RelightTrueInputs, ModelFitsItsTrainingFramesAndBeatsCuesOnlyOnHeldOutFrames) {
-  const std::string dir =
-      (fs::temp_directory_path() / ("relit_relight_true_inputs_" + std::to_string(::getpid()))).string();
+// The fixture removes the workspace however the test ends.
+class RelightTrueInputs : public test_support::TempDirTest {
+ protected:
+  RelightTrueInputs() : TempDirTest("relit_relight_true_inputs_") {}
+};
+
+TEST_F(RelightTrueInputs, ModelFitsItsTrainingFramesAndBeatsCuesOnlyOnHeldOutFrames) {
+  const std::string dir = root_.string();
   testing::TestWorkspaceOptions o;
   o.proxy_offset_m = 0;
   o.samples_per_pixel = 128;
@@ -211,7 +217,6 @@ TEST(RelightTrueInputs, ModelFitsItsTrainingFramesAndBeatsCuesOnlyOnHeldOutFrame
   // the model, is what limits it then.
   EXPECT_GE(fit.psnr_db, 28.0);
   EXPECT_GT(ours.psnr_db, theirs.psnr_db + 2.0);
-  fs::remove_all(dir);
 }
 
 // Training 40 steps in two runs (20, then continued to 40) logs the same
