@@ -71,7 +71,7 @@ VertexEvidence Judge(const Eigen::Vector3d& p, const Eigen::Vector3d& normal, co
   return e;
 }
 
-// One Taubin pass (umbrella operator over the one-ring).
+// One umbrella-operator step over the one-ring (half of a Taubin pass).
 void SmoothStep(const std::vector<std::vector<int>>& rings, float factor, std::vector<Eigen::Vector3f>* positions) {
   const std::vector<Eigen::Vector3f> before = *positions;
   tbb::parallel_for(size_t(0), positions->size(), [&](size_t v) {
@@ -81,6 +81,16 @@ void SmoothStep(const std::vector<std::vector<int>>& rings, float factor, std::v
     mean /= static_cast<float>(rings[v].size());
     (*positions)[v] = before[v] + factor * (mean - before[v]);
   });
+}
+
+// One Taubin step: shrink by lambda, then inflate by mu = -1.02 lambda (no shrinkage).
+void TaubinPass(const std::vector<std::vector<int>>& rings, double lambda, std::vector<Eigen::Vector3f>* positions) {
+  SmoothStep(rings, static_cast<float>(lambda), positions);
+  SmoothStep(rings, static_cast<float>(-1.02 * lambda), positions);
+}
+
+void KeepAboveFloor(double floor_z_m, std::vector<Eigen::Vector3f>* positions) {
+  for (Eigen::Vector3f& p : *positions) p.z() = std::max(p.z(), static_cast<float>(floor_z_m));
 }
 
 }  // namespace
@@ -163,11 +173,8 @@ render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const
       }
       positions[v] += static_cast<float>(move) * normals[v];
     }
-    if (options.smoothing > 0) {
-      SmoothStep(rings, static_cast<float>(options.smoothing), &positions);
-      SmoothStep(rings, static_cast<float>(-1.02 * options.smoothing), &positions);
-    }
-    for (Eigen::Vector3f& p : positions) p.z() = std::max(p.z(), static_cast<float>(floor_z_m));
+    if (options.smoothing > 0) TaubinPass(rings, options.smoothing, &positions);
+    KeepAboveFloor(floor_z_m, &positions);
     if (iteration == 0) report->carved_vertices_first = carved;
     report->carved_vertices_last = carved;
     report->supported_vertices = supported;
@@ -179,9 +186,8 @@ render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const
 
   // Smoothing alone: each iteration's pull to the noisy depths undoes its own pass.
   for (int pass = 0; options.smoothing > 0 && pass < options.final_smoothing_iterations; ++pass) {
-    SmoothStep(rings, static_cast<float>(options.smoothing), &positions);
-    SmoothStep(rings, static_cast<float>(-1.02 * options.smoothing), &positions);
-    for (Eigen::Vector3f& p : positions) p.z() = std::max(p.z(), static_cast<float>(floor_z_m));
+    TaubinPass(rings, options.smoothing, &positions);
+    KeepAboveFloor(floor_z_m, &positions);
   }
 
   render::TriangleMesh refined = mesh;
