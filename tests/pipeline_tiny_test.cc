@@ -16,11 +16,17 @@
 
 #include <gtest/gtest.h>
 
+#include "core/image.h"
 #include "core/json_file.h"
+#include "core/render/mesh.h"
 #include "core/workspace.h"
 #include "pipeline/runner.h"
 #include "tools/synth/synth.h"
 #include "tools/synth/truth.h"
+#ifdef RELIT_HAVE_RELIGHT_LADDER
+#include "bench/relight_ladder.h"
+#include "calib/truth_accuracy.h"
+#endif
 
 namespace relit {
 namespace {
@@ -166,6 +172,71 @@ TEST_F(PipelineTinyTest, RealStagesChainedByTheOrchestrator) {
   for (const char* step : {"train-00", "augment-00", "render", "eval", "report"}) {
     EXPECT_NE(after["steps"][step]["finished_utc"], before["steps"][step]["finished_utc"]) << step;
   }
+}
+
+// The error-budget ladder's rung (a) (bench/relight_ladder.h) on the tiny
+// capture: calib's output with the truth put in must match truth.json, its
+// true mattes must cover the true mesh seen through the rung's own cameras,
+// and the workspace it was made from must be left as it was.
+TEST_F(PipelineTinyTest, LadderRungTakesCamerasFlashAndMattesFromTheTruth) {
+#ifndef RELIT_HAVE_RELIGHT_LADDER
+  GTEST_SKIP() << "relit-skip: the benchmarks are not built (RELIT_BUILD_BENCH=OFF)";
+#else
+  const fs::path yaml = WritePipeline("20");
+  const fs::path ws = *dir_ / "ws";
+  std::string out;
+  pipeline::RunOptions to_reconstruct;
+  to_reconstruct.to = {"reconstruct"};
+  ASSERT_EQ(Run(yaml, to_reconstruct, &out), 0) << out;
+  const json truth = ReadJsonFile((*synth_ / "truth.json").string(), synth::kTruthKind, synth::kTruthVersion);
+  const std::string cameras_before = ReadJsonFile((ws / "calib" / "cameras.json").string(), "cameras", 1).dump();
+  const CalibratedFrame source_frame = *ReadCamerasFile((ws / "calib" / "cameras.json").string()).FramesOf("view")[0];
+  const Image image_before = ReadImage((ws / source_frame.image_linear).string());
+
+  const fs::path rung = *dir_ / "rung-a";
+  bench::LinkTree(ws / "capture", rung / "capture");
+  bench::LinkTree(ws / "calib", rung / "calib");
+  bench::LinkTree(ws / "reconstruct", rung / "reconstruct");
+  bench::WriteTruthCalib(ws, truth, rung);
+  const calib::CalibAccuracy accuracy = calib::MeasureCalibAccuracy(rung.string(), truth);
+  ASSERT_GT(accuracy.devices.at("view").frames, 0);
+  EXPECT_LT(accuracy.devices.at("view").position_median_mm, 1e-6);
+  EXPECT_LT(accuracy.devices.at("view").rotation_median_deg, 1e-6);
+  EXPECT_NEAR(accuracy.devices.at("view").focal_error, 0, 1e-9);
+  EXPECT_LT(accuracy.flash_median_mm, 1e-6);
+  const ProxyFile proxy = ReadProxyFile((rung / "reconstruct" / "proxy.json").string());
+  ASSERT_EQ(bench::WriteTruthMattes(rung, *synth_, truth), static_cast<int>(proxy.mattes.size()));
+
+  // Every vertex of the true mesh that a true camera sees inside the image
+  // lands on the true matte (3x3 neighbourhood: vertices on the silhouette).
+  const render::TriangleMesh mesh =
+      render::LoadMesh((*synth_ / truth["objects"][0]["mesh"].get<std::string>()).string());
+  const CamerasFile cameras = ReadCamerasFile((rung / "calib" / "cameras.json").string());
+  int inside = 0, covered = 0;
+  for (const ViewMatte& m : proxy.mattes) {
+    const Image matte = ReadImage((rung / m.matte).string());
+    const Camera camera = cameras.ViewCamera(*cameras.Find(m.view_frame));
+    for (size_t v = 0; v < mesh.positions.size(); v += 7) {
+      Eigen::Vector2d px;
+      if (!camera.Project(mesh.positions[v].cast<double>(), &px)) continue;
+      const int x = static_cast<int>(std::lround(px.x())), y = static_cast<int>(std::lround(px.y()));
+      if (x < 1 || y < 1 || x >= matte.width() - 1 || y >= matte.height() - 1) continue;
+      float best = 0;
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) best = std::max(best, matte.at(x + dx, y + dy, 0));
+      }
+      ++inside;
+      covered += best >= 0.5f;
+    }
+  }
+  ASSERT_GT(inside, 100);
+  EXPECT_GE(covered, 0.99 * inside) << covered << " of " << inside << " projected vertices on the true matte";
+
+  // The source workspace is untouched (its files were hard-linked, the rung's replaced).
+  EXPECT_EQ(ReadJsonFile((ws / "calib" / "cameras.json").string(), "cameras", 1).dump(), cameras_before);
+  EXPECT_EQ(ReadImage((ws / source_frame.image_linear).string()).data(), image_before.data());
+  EXPECT_NE(ReadImage((rung / source_frame.image_linear).string()).data(), image_before.data());
+#endif
 }
 
 }  // namespace
