@@ -139,10 +139,10 @@ class Ladder {
       RELIT_REQUIRE(o_.force, rung_ws.string(), " was made from another workspace, truth or options: pass --force ",
                     "to redo it, or another --out");
     } else {
-      RELIT_REQUIRE(!fs::exists(rung_ws) || o_.force, rung_ws.string(),
+      // Never delete a folder the ladder did not make.
+      RELIT_REQUIRE(!fs::exists(rung_ws), rung_ws.string(),
                     " exists and is not a ladder rung (no ladder_rung.json): pass another --out");
     }
-    fs::remove_all(rung_ws);
     return {{"rung", std::string(1, rung)}, {"fingerprint", fingerprint_}, {"done", json::array()},
             {"timings_s", json::object()}};
   }
@@ -186,10 +186,14 @@ class Ladder {
   json RunRung(char rung, Progress* progress) {
     const fs::path rung_ws = out_ / (std::string("rung-") + rung);
     json state = OpenRung(rung, rung_ws);
-    fs::create_directories(rung_ws);
     const fs::path log = rung_ws / "ladder.log";
     spdlog::info("ladder: rung {} ({}) in {}", rung, RungDescription(rung), rung_ws.string());
     if (!state.value("prepared", false)) {
+      // From scratch, also after a crash half-way through the preparation;
+      // the state file first, so that a rerun knows the folder is a rung.
+      fs::remove_all(rung_ws);
+      fs::create_directories(rung_ws);
+      WriteJsonFile(StatePath(rung_ws).string(), "ladder_rung", 1, state);
       const auto start = Clock::now();
       Prepare(rung, rung_ws, log);
       state["prepared"] = true;
