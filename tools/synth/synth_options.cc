@@ -215,7 +215,10 @@ RELIT_OPTION_FIELDS(SynthOptions,
          "extrapolation views, >= eval_min_angle_deg from phone V's path (`--eval-views`)")
     .Add("eval_interpolation_views", &S::eval_interpolation_views, 0, 1000,
          "views on phone V's path between its frames (DNL's held-out frames)")
-    .Add("eval_samples_per_pixel", &S::eval_samples_per_pixel, 1, 1 << 16, "path samples per eval pixel")
+    .Add("eval_samples_per_pixel", &S::eval_samples_per_pixel, 1, 1 << 16,
+         "path samples per eval pixel in the box where the foreground projects")
+    .Add("eval_background_samples_per_pixel", &S::eval_background_samples_per_pixel, 1, 1 << 16,
+         "path samples per eval pixel outside that box (background: shown, never scored)")
     .Add("eval_noise_twin", &S::eval_noise_twin,
          "render every eval image twice (independent seeds), for eval's noise floor of the truth")
     .Add("eval_point_lights", &S::eval_point_lights, 0, 100, "point lights of the eval set")

@@ -117,6 +117,9 @@ struct SynthOptions {
   int eval_views = 3;                // extrapolation views, >= eval_min_angle_deg from phone V's path
   int eval_interpolation_views = 0;  // views on phone V's path between its frames (DNL's held-out frames)
   int eval_samples_per_pixel = 16;
+  // Outside the box where the foreground projects (board, table: shown in
+  // eval's images, never scored) eval images take this many samples.
+  int eval_background_samples_per_pixel = 4;
   // A second render of every eval image with an independent seed, so eval
   // can measure the truth's own noise floor (relight.md, "Evaluation").
   bool eval_noise_twin = true;

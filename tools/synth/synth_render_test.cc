@@ -429,5 +429,39 @@ TEST_F(SynthRenderTest, EvalOnlyEqualsTheFullRunsEvalSet) {
   }
 }
 
+// Eval images take the eval samples only in the box where the foreground
+// projects (eval_background_samples_per_pixel elsewhere; tiny: 8 and 4):
+// there the noise twin has its own samples, outside it shares the
+// background's. So every foreground pixel differs between image and twin,
+// and the pixels that differ lie in a box smaller than the frame.
+TEST_F(SynthRenderTest, EvalSamplesCoverTheForegroundAndSpareTheBackground) {
+  size_t foreground = 0, foreground_differing = 0;
+  double smallest_box_fraction = 1;
+  for (const auto& view : (*truth_)["eval"]["views"]) {
+    const Image alpha = ReadImage(Capture(view["alpha"].get<std::string>()).string());
+    int x0 = alpha.width(), y0 = alpha.height(), x1 = -1, y1 = -1;  // where image and twin differ
+    for (const auto& [light, path] : view["images"].items()) {
+      const Image image = ReadImage(Capture(path.get<std::string>()).string());
+      const Image twin = ReadImage(Capture(view["images_twin"][light].get<std::string>()).string());
+      for (int y = 0; y < image.height(); ++y) {
+        for (int x = 0; x < image.width(); ++x) {
+          bool equal = true;
+          for (int c = 0; c < 3; ++c) equal = equal && image.at(x, y, c) == twin.at(x, y, c);
+          if (!equal) x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x), y1 = std::max(y1, y);
+          if (alpha.at(x, y, 0) > 0.01f) {
+            ++foreground;
+            foreground_differing += !equal;
+          }
+        }
+      }
+    }
+    const double box = x1 < 0 ? 0.0 : double(x1 - x0 + 1) * (y1 - y0 + 1);
+    smallest_box_fraction = std::min(smallest_box_fraction, box / (alpha.width() * alpha.height()));
+  }
+  ASSERT_GT(foreground, 1000u);
+  EXPECT_GE(foreground_differing, 0.99 * foreground) << "foreground pixels outside the eval-sample box";
+  EXPECT_LT(smallest_box_fraction, 0.9) << "the background took the eval samples too";
+}
+
 }  // namespace
 }  // namespace relit::synth

@@ -205,7 +205,8 @@ nlohmann::json MakeTruthJson(const SynthOptions& o, const SynthScene& scene, con
   j["render"] = {{"renderer", "relit path tracer (core/render)"},
                  {"samples_per_pixel", o.samples_per_pixel},
                  {"max_depth", o.max_depth},
-                 {"eval_samples_per_pixel", o.eval_samples_per_pixel}};
+                 {"eval_samples_per_pixel", o.eval_samples_per_pixel},
+                 {"eval_background_samples_per_pixel", o.eval_background_samples_per_pixel}};
 
   nlohmann::json lights = nlohmann::json::array();
   for (const EvalLight& light : plan.eval_lights) {
