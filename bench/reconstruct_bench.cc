@@ -38,6 +38,7 @@
 
 #include "bench/bench_util.h"
 #include "bench/reconstruct_breakdown.h"
+#include "calib/truth_accuracy.h"
 #include "calib/undistort.h"
 #include "core/capture_file.h"
 #include "core/error.h"
@@ -256,14 +257,10 @@ class MatteFrames {
     m.camera = cameras_.ViewCamera(*frame);
     const int index = std::stoi(vm.view_frame.substr(vm.view_frame.find('/') + 1));
     const json& truth_frame = truth_.at("videos").at("view").at("frames").at(source_frame_.at(index));
-    cv::Mat gt_distorted =
-        ReadImage((fs::path(o_.synth) / truth_frame.at("alpha").get<std::string>()).string()).ToMat();
-    if (gt_distorted.channels() > 1) cv::extractChannel(gt_distorted, gt_distorted, 0);
     const Intrinsics& lens = cameras_.devices.at("view");
-    if (gt_distorted.cols != lens.width || gt_distorted.rows != lens.height) {  // capture downscaled the video
-      cv::resize(gt_distorted, gt_distorted, cv::Size(lens.width, lens.height), 0, 0, cv::INTER_AREA);
-    }
-    m.gt = undistorter_.Remap(gt_distorted);
+    m.gt = undistorter_.Remap(calib::DisplayedTruthAlpha(
+        (fs::path(o_.synth) / truth_frame.at("alpha").get<std::string>()).string(),
+        calib::TruthDisplayRotation(truth_, "view"), lens.width, lens.height));
     ReadImage((ws_ / vm.trimap).string()).ToMat().convertTo(m.trimap, CV_8U, 255.0);
     if (m.trimap.channels() > 1) cv::extractChannel(m.trimap, m.trimap, 0);
     m.unknown = m.trimap == reconstruct::kTrimapUnknown;

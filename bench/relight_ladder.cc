@@ -47,16 +47,6 @@ void LinkTree(const fs::path& from, const fs::path& to) {
 
 namespace {
 
-// The truth of a kept capture frame, through its index in the rendered video.
-const json& TruthFrame(const CaptureFile& capture, const json& truth, const std::string& device,
-                       const std::string& name) {
-  const CaptureFrame* frame = capture.Find(name);
-  RELIT_REQUIRE(frame != nullptr && frame->source_frame >= 0, "frame ", name,
-                " is not in capture.json with its video frame: was this workspace made from this capture?");
-  RELIT_REQUIRE(truth.at("videos").contains(device), "truth.json has no video '", device, "'");
-  return truth["videos"][device]["frames"].at(frame->source_frame);
-}
-
 // The truth's lens of `phone` at the size calib saw the frames.
 Intrinsics TruthLensAt(const json& truth, const std::string& phone, const Intrinsics& calibrated) {
   Intrinsics lens = calib::TruthLens(truth, phone);
@@ -69,7 +59,8 @@ Intrinsics TruthLensAt(const json& truth, const std::string& phone, const Intrin
 }  // namespace
 
 void WriteTruthCalib(const fs::path& source_workspace, const json& truth, const fs::path& rung_workspace) {
-  const CaptureFile capture = ReadCaptureFile(CaptureFilePath(rung_workspace.string()));
+  const std::string capture_path = CaptureFilePath(rung_workspace.string());
+  const CaptureFile capture = ReadCaptureFile(capture_path);
   CamerasFile cameras = ReadCamerasFile((source_workspace / "calib" / "cameras.json").string());
   LightsFile lights = ReadLightsFile((source_workspace / "calib" / "lights.json").string());
 
@@ -78,7 +69,7 @@ void WriteTruthCalib(const fs::path& source_workspace, const json& truth, const 
   std::vector<CalibratedFrame> frames;
   for (CalibratedFrame f : cameras.frames) {
     if (f.device == "geometry") continue;
-    const json& t = TruthFrame(capture, truth, f.device, f.name);
+    const json& t = calib::TruthFrameOf(capture, capture_path, truth, f.device, f.name);
     f.cam_from_world = calib::DisplayedCamFromWorld(Rigid3FromJson(t.at("cam_from_world")),
                                                     calib::TruthDisplayRotation(truth, f.device));
     frames.push_back(f);
@@ -88,7 +79,8 @@ void WriteTruthCalib(const fs::path& source_workspace, const json& truth, const 
   const std::vector<double> offset = calib::TruthFlashOffset(truth);
   lights.flash_offset_m = Eigen::Vector3d(offset[0], offset[1], offset[2]);
   for (FrameLight& l : lights.frames) {
-    l.position_m = Vector3FromJson(TruthFrame(capture, truth, "view", l.view_frame).at("light_position_world_m"));
+    l.position_m = Vector3FromJson(
+        calib::TruthFrameOf(capture, capture_path, truth, "view", l.view_frame).at("light_position_world_m"));
     l.nearest_light_gap_s = 0;
     l.reliable = true;
   }
@@ -110,7 +102,8 @@ void WriteTruthCalib(const fs::path& source_workspace, const json& truth, const 
 }
 
 int WriteTruthMattes(const fs::path& rung_workspace, const fs::path& synth_dir, const json& truth) {
-  const CaptureFile capture = ReadCaptureFile(CaptureFilePath(rung_workspace.string()));
+  const std::string capture_path = CaptureFilePath(rung_workspace.string());
+  const CaptureFile capture = ReadCaptureFile(capture_path);
   const CamerasFile cameras = ReadCamerasFile((rung_workspace / "calib" / "cameras.json").string());
   const ProxyFile proxy = ReadProxyFile((rung_workspace / "reconstruct" / "proxy.json").string());
   const Intrinsics& lens = cameras.devices.at("view");
@@ -118,19 +111,11 @@ int WriteTruthMattes(const fs::path& rung_workspace, const fs::path& synth_dir, 
   const int rotation_deg = calib::TruthDisplayRotation(truth, "view");
   tbb::parallel_for(size_t(0), proxy.mattes.size(), [&](size_t i) {
     const ViewMatte& m = proxy.mattes[i];
-    const json& t = TruthFrame(capture, truth, "view", m.view_frame);
+    const json& t = calib::TruthFrameOf(capture, capture_path, truth, "view", m.view_frame);
     RELIT_REQUIRE(t.contains("alpha"), "truth.json has no alpha for ", m.view_frame,
                   ": render the capture with relit-synth's default truth output");
-    cv::Mat alpha = ReadImage((synth_dir / t.at("alpha").get<std::string>()).string()).ToMat();
-    if (alpha.channels() > 1) cv::extractChannel(alpha, alpha, 0);
-    // Stored pixels -> displayed (calib's frames are turned clockwise).
-    if (rotation_deg == 90) cv::rotate(alpha, alpha, cv::ROTATE_90_CLOCKWISE);
-    if (rotation_deg == 180) cv::rotate(alpha, alpha, cv::ROTATE_180);
-    if (rotation_deg == 270) cv::rotate(alpha, alpha, cv::ROTATE_90_COUNTERCLOCKWISE);
-    if (alpha.cols != lens.width || alpha.rows != lens.height) {
-      cv::resize(alpha, alpha, cv::Size(lens.width, lens.height), 0, 0, cv::INTER_AREA);
-    }
-    cv::Mat undistorted = undistorter.Remap(alpha);
+    cv::Mat undistorted = undistorter.Remap(calib::DisplayedTruthAlpha(
+        (synth_dir / t.at("alpha").get<std::string>()).string(), rotation_deg, lens.width, lens.height));
     cv::min(cv::max(undistorted, 0.0), 1.0, undistorted);
     WriteImage((rung_workspace / m.matte).string(), Image::FromMat(undistorted), PixelStorage::kUint16);
   });

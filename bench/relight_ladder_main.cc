@@ -130,6 +130,9 @@ class Ladder {
   static constexpr int kStepsPerRung = 6;
 
   fs::path StatePath(const fs::path& rung_ws) const { return rung_ws / "ladder_rung.json"; }
+  void SaveState(const fs::path& rung_ws, const json& state) const {
+    WriteJsonFile(StatePath(rung_ws).string(), "ladder_rung", 1, state);
+  }
 
   // The rung's state file, or a fresh one; refuses a rung from other inputs.
   json OpenRung(char rung, const fs::path& rung_ws) {
@@ -180,7 +183,7 @@ class Ladder {
     RunTool(argv, log);
     (*state)["timings_s"][step.name] = SecondsSince(start);
     (*state)["done"].push_back(step.name);
-    WriteJsonFile(StatePath(rung_ws).string(), "ladder_rung", 1, *state);
+    SaveState(rung_ws, *state);
   }
 
   json RunRung(char rung, Progress* progress) {
@@ -193,12 +196,12 @@ class Ladder {
       // the state file first, so that a rerun knows the folder is a rung.
       fs::remove_all(rung_ws);
       fs::create_directories(rung_ws);
-      WriteJsonFile(StatePath(rung_ws).string(), "ladder_rung", 1, state);
+      SaveState(rung_ws, state);
       const auto start = Clock::now();
       Prepare(rung, rung_ws, log);
       state["prepared"] = true;
       state["timings_s"]["prepare"] = SecondsSince(start);
-      WriteJsonFile(StatePath(rung_ws).string(), "ladder_rung", 1, state);
+      SaveState(rung_ws, state);
     }
     progress->Advance();
     pipeline::StepGraph graph(config_, rung_ws.string(), /*with_export=*/false,
@@ -216,7 +219,7 @@ class Ladder {
     }
     const json eval = ReadJsonFile((rung_ws / "relight" / "eval" / "eval.json").string(), "eval", 1);
     state["scores"] = RungScores(eval);
-    WriteJsonFile(StatePath(rung_ws).string(), "ladder_rung", 1, state);
+    SaveState(rung_ws, state);
     return state;
   }
 

@@ -4,9 +4,12 @@
 #include <cmath>
 #include <sstream>
 
+#include <opencv2/imgproc.hpp>
+
 #include "core/camera.h"
 #include "core/capture_file.h"
 #include "core/error.h"
+#include "core/image.h"
 #include "core/json_file.h"
 #include "core/workspace.h"
 
@@ -96,18 +99,36 @@ BoardSpec BoardSpecFromTruth(const json& truth) {
   return spec;
 }
 
+const json& TruthFrameOf(const CaptureFile& capture, const std::string& capture_path, const json& truth,
+                         const std::string& device, const std::string& name) {
+  const CaptureFrame* frame = capture.Find(name);
+  RELIT_REQUIRE(frame != nullptr && frame->source_frame >= 0, "frame ", name, " is not in ", capture_path,
+                " with its video frame: was calib run on this capture?");
+  RELIT_REQUIRE(truth.contains("videos") && truth["videos"].contains(device), "truth.json has no video '", device,
+                "'");
+  return truth["videos"][device]["frames"].at(frame->source_frame);
+}
+
+cv::Mat DisplayedTruthAlpha(const std::string& path, int rotation_deg, int width, int height) {
+  cv::Mat alpha = ReadImage(path).ToMat();
+  if (alpha.channels() > 1) cv::extractChannel(alpha, alpha, 0);
+  if (rotation_deg == 90) cv::rotate(alpha, alpha, cv::ROTATE_90_CLOCKWISE);
+  if (rotation_deg == 180) cv::rotate(alpha, alpha, cv::ROTATE_180);
+  if (rotation_deg == 270) cv::rotate(alpha, alpha, cv::ROTATE_90_COUNTERCLOCKWISE);
+  if (alpha.cols != width || alpha.rows != height) {  // capture downscaled the video
+    cv::resize(alpha, alpha, cv::Size(width, height), 0, 0, cv::INTER_AREA);
+  }
+  return alpha;
+}
+
 CalibAccuracy MeasureCalibAccuracy(const std::string& workspace, const json& truth) {
   const CaptureFile capture = ReadCaptureFile(CaptureFilePath(workspace));
   const CamerasFile cameras = ReadCamerasFile(workspace + "/calib/cameras.json");
   const LightsFile lights = ReadLightsFile(workspace + "/calib/lights.json");
 
-  // A calib frame's truth, through the index of the frame in its rendered video.
+  const std::string capture_path = CaptureFilePath(workspace);
   auto truth_frame = [&](const std::string& device, const std::string& name) -> const json& {
-    const CaptureFrame* frame = capture.Find(name);
-    RELIT_REQUIRE(frame != nullptr, "calib frame ", name, " is not in ", workspace,
-                  "/capture/capture.json: was calib run on this capture?");
-    RELIT_REQUIRE(truth["videos"].contains(device), "truth.json has no video '", device, "'");
-    return truth["videos"][device]["frames"].at(frame->source_frame);
+    return TruthFrameOf(capture, capture_path, truth, device, name);
   };
 
   std::map<std::string, std::vector<double>> position_mm, rotation_deg;

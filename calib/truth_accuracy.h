@@ -11,9 +11,11 @@
 #include <nlohmann/json.hpp>
 
 #include <Eigen/Core>
+#include <opencv2/core.hpp>
 
 #include "core/board.h"
 #include "core/camera.h"
+#include "core/capture_file.h"
 
 namespace relit::calib {
 
@@ -53,6 +55,17 @@ int TruthDisplayRotation(const nlohmann::json& truth, const std::string& phone);
 // truth.json's lens of `phone` and the flash offset (phone L's camera frame), as calib sees them.
 Intrinsics TruthLens(const nlohmann::json& truth, const std::string& phone);
 std::vector<double> TruthFlashOffset(const nlohmann::json& truth);
+
+// truth.json's frame of a kept capture frame (`device`'s video, through the
+// frame's source_frame index). `capture_path` names capture.json in errors.
+const nlohmann::json& TruthFrameOf(const CaptureFile& capture, const std::string& capture_path,
+                                   const nlohmann::json& truth, const std::string& device, const std::string& name);
+
+// A truth alpha matte (stored pixels, relit-synth's truth/view_alpha) as calib
+// sees its frame: one channel, turned clockwise by the display rotation and
+// resized to width x height when capture downscaled the video. Still
+// distorted: resample it as the frame was (FrameUndistorter::Remap).
+cv::Mat DisplayedTruthAlpha(const std::string& path, int rotation_deg, int width, int height);
 
 // The board truth.json says was rendered (its "board" object).
 BoardSpec BoardSpecFromTruth(const nlohmann::json& truth);

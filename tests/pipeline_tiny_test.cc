@@ -114,6 +114,13 @@ class PipelineTinyTest : public ::testing::Test {
     return code;
   }
 
+  // Runs the pipeline up to reconstruct; the exit code, its output in `out`.
+  static int RunToReconstruct(const fs::path& yaml, std::string* out) {
+    pipeline::RunOptions to_reconstruct;
+    to_reconstruct.to = {"reconstruct"};
+    return Run(yaml, to_reconstruct, out);
+  }
+
   static fs::path* dir_;
   static fs::path* synth_;
 };
@@ -125,9 +132,7 @@ TEST_F(PipelineTinyTest, RealStagesChainedByTheOrchestrator) {
   const fs::path yaml = WritePipeline("20");
   const fs::path ws = *dir_ / "ws";
   std::string out;
-  pipeline::RunOptions to_reconstruct;
-  to_reconstruct.to = {"reconstruct"};
-  ASSERT_EQ(Run(yaml, to_reconstruct, &out), 0) << out;
+  ASSERT_EQ(RunToReconstruct(yaml, &out), 0) << out;
 
   // What the next stages read.
   const CamerasFile cameras = ReadCamerasFile((ws / "calib" / "cameras.json").string());
@@ -143,7 +148,7 @@ TEST_F(PipelineTinyTest, RealStagesChainedByTheOrchestrator) {
   }
   EXPECT_FALSE(lock["steps"].contains("cues"));
 
-  ASSERT_EQ(Run(yaml, to_reconstruct, &out), 0) << out;
+  ASSERT_EQ(RunToReconstruct(yaml, &out), 0) << out;
   EXPECT_NE(out.find("everything is up to date (3 steps)"), std::string::npos) << out;
 
   if (!*kRelight || !*kReport) {
@@ -185,9 +190,7 @@ TEST_F(PipelineTinyTest, LadderRungTakesCamerasFlashAndMattesFromTheTruth) {
   const fs::path yaml = WritePipeline("20");
   const fs::path ws = *dir_ / "ws";
   std::string out;
-  pipeline::RunOptions to_reconstruct;
-  to_reconstruct.to = {"reconstruct"};
-  ASSERT_EQ(Run(yaml, to_reconstruct, &out), 0) << out;
+  ASSERT_EQ(RunToReconstruct(yaml, &out), 0) << out;
   const json truth = ReadJsonFile((*synth_ / "truth.json").string(), synth::kTruthKind, synth::kTruthVersion);
   const std::string cameras_before = ReadJsonFile((ws / "calib" / "cameras.json").string(), "cameras", 1).dump();
   const CalibratedFrame source_frame = *ReadCamerasFile((ws / "calib" / "cameras.json").string()).FramesOf("view")[0];

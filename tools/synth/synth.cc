@@ -37,6 +37,27 @@ Image AlphaChannel(const render::RenderResult& result) {
   return alpha;
 }
 
+// The camera of the pixel rectangle at (x0, y0), `width` x `height`, of `k`:
+// same rays, pixel (x, y) of the crop is (x0 + x, y0 + y) of the image.
+Intrinsics CropIntrinsics(const Intrinsics& k, int x0, int y0, int width, int height) {
+  Intrinsics crop = k;
+  crop.width = width;
+  crop.height = height;
+  crop.cx -= x0;
+  crop.cy -= y0;
+  return crop;
+}
+
+// Copies `part`'s radiance and alpha into `into` at (x0, y0).
+void PasteAt(const render::RenderResult& part, int x0, int y0, render::RenderResult* into) {
+  for (int y = 0; y < part.radiance.height(); ++y) {
+    for (int x = 0; x < part.radiance.width(); ++x) {
+      for (int c = 0; c < 3; ++c) into->radiance.at(x0 + x, y0 + y, c) = part.radiance.at(x, y, c);
+      into->alpha.at(x0 + x, y0 + y, 0) = part.alpha.at(x, y, 0);
+    }
+  }
+}
+
 SensorParams Sensor(const SynthOptions& o) {
   SensorParams sensor;
   sensor.exposure = o.exposure;
@@ -102,20 +123,13 @@ render::RenderResult RenderFrame(const SynthOptions& o, const VideoPlan& video, 
   full.alpha = Image(width, height, 1);
   for (size_t b = 0; b < frame.bands.size(); ++b) {
     const RowBand& band = frame.bands[b];
-    Intrinsics crop = video.intrinsics;
-    crop.height = band.row_end - band.row_begin;
-    crop.cy -= band.row_begin;
+    const Intrinsics crop = CropIntrinsics(video.intrinsics, 0, band.row_begin, width, band.row_end - band.row_begin);
     set_flash(band.light_position_world);
     render::RenderOptions band_options = options;
     band_options.seed = render::MixBits(seed + 0x9e37 * (b + 1));
     render::RenderResult part = render::RenderImage(*scene, Camera(crop, band.cam_from_world), band_options);
     if (shadow) ApplyFlashShadow(o, band.light_position_world, &part);
-    for (int y = 0; y < crop.height; ++y) {
-      for (int x = 0; x < width; ++x) {
-        for (int c = 0; c < 3; ++c) full.radiance.at(x, band.row_begin + y, c) = part.radiance.at(x, y, c);
-        full.alpha.at(x, band.row_begin + y, 0) = part.alpha.at(x, y, 0);
-      }
-    }
+    PasteAt(part, 0, band.row_begin, &full);
   }
   return full;
 }
@@ -223,22 +237,11 @@ std::array<int, 4> ForegroundBox(const Camera& camera, const SynthScene& synth_s
 // fewer samples; null: the box is the whole image).
 render::RenderResult RenderEvalImage(const render::Scene& scene, const Camera& camera, const std::array<int, 4>& box,
                                      const render::RenderOptions& options, const render::RenderResult* background) {
-  const Intrinsics& k = camera.intrinsics();
   if (background == nullptr) return render::RenderImage(scene, camera, options);
   render::RenderResult out = *background;
   if (box[2] <= box[0] || box[3] <= box[1]) return out;  // the foreground is outside the frame
-  Intrinsics crop = k;
-  crop.width = box[2] - box[0];
-  crop.height = box[3] - box[1];
-  crop.cx -= box[0];
-  crop.cy -= box[1];
-  const render::RenderResult part = render::RenderImage(scene, Camera(crop, camera.cam_from_world()), options);
-  for (int y = 0; y < crop.height; ++y) {
-    for (int x = 0; x < crop.width; ++x) {
-      for (int c = 0; c < 3; ++c) out.radiance.at(box[0] + x, box[1] + y, c) = part.radiance.at(x, y, c);
-      out.alpha.at(box[0] + x, box[1] + y, 0) = part.alpha.at(x, y, 0);
-    }
-  }
+  const Intrinsics crop = CropIntrinsics(camera.intrinsics(), box[0], box[1], box[2] - box[0], box[3] - box[1]);
+  PasteAt(render::RenderImage(scene, Camera(crop, camera.cam_from_world()), options), box[0], box[1], &out);
   return out;
 }
 
