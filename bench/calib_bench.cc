@@ -9,6 +9,10 @@
 //  4. With several --workspace (copies of one capture calibrated with
 //     different options, e.g. sfm.mode incremental vs board_seeded): step
 //     timings and accuracy side by side, one column per workspace.
+//  5. --corner-bias: calib's ChArUco corners against their true projection
+//     per phone (error, radial bias, error slopes, shift toward the darker
+//     side and the board's far side) and the lens step on those corners and
+//     on the same corners at their true pixels (issue 28).
 // Results and how to reproduce them: docs/benchmarks.md, section "Calib".
 #include <chrono>
 #include <cstdio>
@@ -25,6 +29,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calib/board_detect.h"
+#include "calib/board_pose.h"
+#include "calib/calib_options.h"
 #include "calib/truth_accuracy.h"
 #include "core/board.h"
 #include "core/camera.h"
@@ -185,6 +191,135 @@ void PrintDetection(const std::vector<FrameSample>& samples, const BoardSpec& sp
   }
 }
 
+// ChArUco corners of calib's detector against their true projection, per
+// phone: is the detection biased along the radius from the principal point
+// (issue 28: phone L's focal length comes out too long)? "scale" is the
+// least-squares factor s of detected - c = s * (true - c), c the true
+// principal point, minus 1; "radial" the mean error along (true - c).
+void PrintCornerBias(const std::vector<FrameSample>& samples, const BoardSpec& spec, const std::string& refine) {
+  DetectOptions options;
+  options.threads = 1;
+  options.corner_refine = refine;
+  const BoardDetector detector(spec, options);
+  const auto board = MakeCharucoBoard(spec);
+  const Rigid3 world_from_board = WorldFromBoard(spec);
+  std::printf("\n## ChArUco corners against truth (radial bias), detect.corner_refine %s\n\n", refine.c_str());
+  std::printf("| phone | frames | corners | error median / p90 (px) | mean error x / y (px) | radial mean (px) | "
+              "scale about c | radial mean at r < 60 / 60-120 / > 120 px |\n| --- | --- | --- | --- | --- | --- | --- | --- |\n");
+  for (const std::string device : {"view", "light"}) {
+    std::vector<double> errors;
+    double num = 0, den = 0, radial = 0, ex = 0, ey = 0;
+    double bin_sum[3] = {0, 0, 0};
+    int bin_count[3] = {0, 0, 0};
+    int frames = 0, corners = 0;
+    double toward_far = 0, toward_far_tilted = 0, sxx = 0, syy = 0, exx = 0, eyy = 0, exy = 0;
+    int tilted = 0;
+    double toward_dark = 0, slope_num = 0, slope_den = 0, gradient_sum = 0;
+    std::vector<BoardObservation> detected, exact;  // calib's corners; the same corners at their true pixels
+    cv::Size size;
+    double truth_fx = 0;
+    for (const FrameSample& s : samples) {
+      if (s.device != device) continue;
+      ++frames;
+      const cv::Mat grey = cv::imread(s.path, cv::IMREAD_GRAYSCALE);
+      size = grey.size();
+      truth_fx = s.truth_camera.intrinsics().fx;
+      const BoardObservation obs = detector.Detect(grey);
+      BoardObservation kept, true_obs;
+      // Local white level: the brightest pixel within ~a square, smoothed.
+      cv::Mat white;
+      cv::dilate(grey, white, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(41, 41)));
+      white.convertTo(white, CV_32F);
+      cv::GaussianBlur(white, white, cv::Size(0, 0), 15);
+      cv::Mat log_white;
+      cv::log(cv::max(white, 1.0f), log_white);
+      const Eigen::Vector2d c(s.truth_camera.intrinsics().cx, s.truth_camera.intrinsics().cy);
+      for (size_t i = 0; i < obs.corner_ids.size(); ++i) {
+        const cv::Point3f& p = board->chessboardCorners[obs.corner_ids[i]];
+        Eigen::Vector2d t;
+        if (!s.truth_camera.Project(world_from_board * Eigen::Vector3d(p.x, p.y, p.z), &t)) continue;
+        const Eigen::Vector2d e = obs.corners_px[i] - t;
+        if (e.norm() > 3) continue;  // not that corner (occlusion, mismatch)
+        {
+          const int x = std::clamp(static_cast<int>(std::lround(t.x())), 5, grey.cols - 6);
+          const int y = std::clamp(static_cast<int>(std::lround(t.y())), 5, grey.rows - 6);
+          const Eigen::Vector2d g((log_white.at<float>(y, x + 5) - log_white.at<float>(y, x - 5)) / 10,
+                                  (log_white.at<float>(y + 5, x) - log_white.at<float>(y - 5, x)) / 10);
+          if (g.norm() > 1e-6) toward_dark += -e.dot(g.normalized());
+          slope_num += -e.dot(g);
+          slope_den += g.squaredNorm();
+          gradient_sum += g.norm();
+        }
+        {
+          // Toward the board's far side: the image direction of the board's
+          // in-plane direction of steepest depth increase.
+          const Eigen::Vector3d P = world_from_board * Eigen::Vector3d(p.x, p.y, p.z);
+          const Eigen::Vector3d axis = s.truth_camera.world_from_cam().rotation * Eigen::Vector3d::UnitZ();
+          Eigen::Vector3d d = axis - axis.z() * Eigen::Vector3d::UnitZ();
+          if (d.norm() > 1e-6) {
+            d.normalize();
+            Eigen::Vector2d t2;
+            if (s.truth_camera.Project(P + 0.002 * d, &t2)) {
+              const Eigen::Vector2d u = (t2 - t).normalized();
+              toward_far += e.dot(u);
+              const double tilt = std::acos(std::min(1.0, std::abs(axis.z())));
+              toward_far_tilted += tilt > 50 * M_PI / 180 ? e.dot(u) : 0;
+              tilted += tilt > 50 * M_PI / 180;
+            }
+          }
+        }
+        kept.corner_ids.push_back(obs.corner_ids[i]);
+        kept.corners_px.push_back(obs.corners_px[i]);
+        true_obs.corner_ids.push_back(obs.corner_ids[i]);
+        true_obs.corners_px.push_back(t);
+        errors.push_back(e.norm());
+        const Eigen::Vector2d tr = t - c, dr = obs.corners_px[i] - c;
+        sxx += tr.x() * tr.x();
+        syy += tr.y() * tr.y();
+        exx += e.x() * tr.x();
+        eyy += e.y() * tr.y();
+        exy += e.x() * tr.y();
+        num += dr.dot(tr);
+        den += tr.dot(tr);
+        const double rad = e.dot(tr.normalized());
+        radial += rad;
+        ex += e.x();
+        ey += e.y();
+        const int bin = tr.norm() < 60 ? 0 : tr.norm() < 120 ? 1 : 2;
+        bin_sum[bin] += rad;
+        ++bin_count[bin];
+        ++corners;
+      }
+      detected.push_back(kept);
+      exact.push_back(true_obs);
+    }
+    if (corners == 0) continue;
+    auto lens_fx = [&](const std::vector<BoardObservation>& obs) {
+      std::vector<const BoardObservation*> pointers;
+      for (const BoardObservation& o : obs) pointers.push_back(&o);
+      const CalibOptions defaults;
+      const BoardCalibration c = CalibrateFromBoard(
+          pointers, spec, size.width, size.height, defaults.intrinsics.refine_k3, defaults.intrinsics.square_pixels,
+          defaults.intrinsics.refine_tangential, defaults.detect.min_corners, 60, device);
+      return 100 * (c.intrinsics.fx / truth_fx - 1);
+    };
+    std::printf("lens step (calibrateCameraCharuco, calib's defaults) on %s: focal error %+.3f %% from the detected "
+                "corners, %+.3f %% from the same corners at their true pixels\n",
+                device.c_str(), lens_fx(detected), lens_fx(exact));
+    std::printf("%s: mean error toward the darker side (local white level) %+.4f px; mean |grad log white| %.4f /px; "
+                "error per unit of -grad log white %+.3f px^2\n",
+                device.c_str(), toward_dark / corners, gradient_sum / corners, slope_num / slope_den);
+    std::printf("%s: error slopes (%% of the offset from c): x on x %+.3f, y on y %+.3f, x on y (shear) %+.3f\n",
+                device.c_str(), 100 * exx / sxx, 100 * eyy / syy, 100 * exy / syy);
+    std::printf("%s: mean error toward the board's far side %+.4f px (all), %+.4f px (%d corners seen > 50 deg from the normal)\n",
+                device.c_str(), toward_far / corners, toward_far_tilted / std::max(1, tilted), tilted);
+    std::printf("| %s | %d | %d | %.3f / %.3f | %+.3f / %+.3f | %+.4f | %+.3f %% | %+.3f / %+.3f / %+.3f |\n",
+                device.c_str(), frames, corners, Median(errors), Quantile(errors, 0.9), ex / corners, ey / corners,
+                radial / corners, 100 * (num / den - 1), bin_sum[0] / std::max(1, bin_count[0]),
+                bin_sum[1] / std::max(1, bin_count[1]), bin_sum[2] / std::max(1, bin_count[2]));
+  }
+}
+
 void PrintStepTimings(const json& report) {
   std::printf("\n## calib step timings (W/calib/calib_report.json)\n\n| step | seconds |\n| --- | --- |\n");
   for (const auto& [step, seconds] : report["timings_s"].items()) {
@@ -297,16 +432,25 @@ int Run(int argc, char** argv) {
   std::vector<std::string> workspaces;
   std::string truth_path;
   int max_frames = 40;
-  bool detection_only = false, skip_detection = false;
+  bool detection_only = false, skip_detection = false, corner_bias = false;
+  std::string corner_refine = DetectOptions().corner_refine;
   app.add_option("--workspace", workspaces, "workspace with capture/ (and calib/ for timings and accuracy); "
                  "repeat it for copies of one capture calibrated differently (side-by-side table)")->required();
   app.add_option("--truth", truth_path, "truth.json of the synthetic capture")->required();
   app.add_option("--max-frames", max_frames, "frames per phone for the detection comparison (0 = all)");
   app.add_flag("--detection-only", detection_only, "skip the calib/ sections");
   app.add_flag("--skip-detection", skip_detection, "skip the detector comparison (section 1)");
+  app.add_flag("--corner-bias", corner_bias, "ChArUco corners against their true projection per phone "
+               "(radial bias, scale about the principal point, the lens step on them), then stop");
+  app.add_option("--corner-refine", corner_refine, "detect.corner_refine for --corner-bias")
+      ->check(CLI::IsMember({"cornersubpix", "saddle"}));
   CLI11_PARSE(app, argc, argv);
   const json truth = ReadJsonFile(truth_path, "synth_truth", 1);
   const std::string& workspace = workspaces.front();
+  if (corner_bias) {
+    PrintCornerBias(SampleFrames(workspace, truth, max_frames), BoardSpecFromTruth(truth), corner_refine);
+    return 0;
+  }
   if (!skip_detection) PrintDetection(SampleFrames(workspace, truth, max_frames), BoardSpecFromTruth(truth));
   if (detection_only) return 0;
   if (workspaces.size() > 1) {

@@ -220,14 +220,29 @@ BoardObservation BoardDetector::Detect(const cv::Mat& grey) const {
   // contour-based marker corners: refine once more (docs/synthetic.md).
   const int w = o.subpix_half_window_px;
   const cv::TermCriteria criteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3);
-  if (!charuco_corners.empty()) cv::cornerSubPix(grey, charuco_corners, cv::Size(w, w), cv::Size(-1, -1), criteria);
+  // cornerSubPix, then with detect.corner_refine "saddle" the saddle fit,
+  // which looks only at the pixels next to the corner (docs/calib.md,
+  // "Sub-pixel corners").
+  const bool saddle = o.corner_refine == "saddle";
+  // From cornerSubPix's corner, the saddle fit may move this far; further
+  // (small squares, where a marker's own X-junctions fall in its grid) it
+  // has found another saddle and cornerSubPix's corner stays.
+  constexpr double kSaddleMaxMovePx = 0.5;
+  cv::Mat smooth;
+  if (saddle) smooth = SaddleSmoothed(grey, o.saddle_sigma_px);
+  auto refine = [&](std::vector<cv::Point2f>* points) {
+    if (points->empty()) return;
+    cv::cornerSubPix(grey, *points, cv::Size(w, w), cv::Size(-1, -1), criteria);
+    if (saddle) SaddleRefine(smooth, o.saddle_half_window_px, kSaddleMaxMovePx, points);
+  };
+  refine(&charuco_corners);
   for (size_t i = 0; i < charuco_ids.size(); ++i) {
     obs.corner_ids.push_back(charuco_ids[i]);
     obs.corners_px.emplace_back(charuco_corners[i].x, charuco_corners[i].y);
   }
   if (!single_corners.empty()) {
     const std::vector<cv::Point2f> predicted = single_corners;
-    cv::cornerSubPix(grey, single_corners, cv::Size(w, w), cv::Size(-1, -1), criteria);
+    refine(&single_corners);
     for (size_t i = 0; i < single_ids.size(); ++i) {
       if (cv::norm(single_corners[i] - predicted[i]) > 1.5) continue;  // drifted: not that corner
       obs.corner_ids.push_back(single_ids[i]);
@@ -237,6 +252,58 @@ BoardObservation BoardDetector::Detect(const cv::Mat& grey) const {
   }
   obs.opencv_ms += MillisecondsSince(start);
   return obs;
+}
+
+cv::Mat SaddleSmoothed(const cv::Mat& grey, double sigma_px) {
+  cv::Mat smooth;
+  grey.convertTo(smooth, CV_32F);
+  cv::GaussianBlur(smooth, smooth, cv::Size(0, 0), sigma_px);
+  return smooth;
+}
+
+std::vector<bool> SaddleRefine(const cv::Mat& smooth, int half, double max_move_px,
+                               std::vector<cv::Point2f>* corners) {
+  RELIT_CHECK(smooth.type() == CV_32FC1 && half >= 1);
+  const int n = 2 * half + 1;
+  // Least-squares quadratic z = a x^2 + b xy + c y^2 + d x + e y + f on the
+  // n x n grid of offsets -half..half around the current estimate.
+  cv::Mat design(n * n, 6, CV_64F);
+  for (int y = -half, r = 0; y <= half; ++y) {
+    for (int x = -half; x <= half; ++x, ++r) {
+      const double row[6] = {double(x * x), double(x * y), double(y * y), double(x), double(y), 1.0};
+      for (int k = 0; k < 6; ++k) design.at<double>(r, k) = row[k];
+    }
+  }
+  cv::Mat pinv;
+  cv::invert(design, pinv, cv::DECOMP_SVD);
+  cv::Mat patch, z(n * n, 1, CV_64F);
+  std::vector<bool> moved(corners->size(), false);
+  for (size_t i = 0; i < corners->size(); ++i) {
+    cv::Point2f& corner = (*corners)[i];
+    cv::Point2d p = corner;
+    bool converged = false;
+    for (int iteration = 0; iteration < 20 && !converged; ++iteration) {
+      if (p.x < half + 1 || p.y < half + 1 || p.x > smooth.cols - half - 2 || p.y > smooth.rows - half - 2) break;
+      cv::getRectSubPix(smooth, cv::Size(n, n), cv::Point2f(float(p.x), float(p.y)), patch, CV_32F);
+      for (int r = 0; r < n * n; ++r) z.at<double>(r) = patch.at<float>(r / n, r % n);
+      const cv::Mat q = pinv * z;
+      const double a = q.at<double>(0), b = q.at<double>(1), c = q.at<double>(2);
+      const double d = q.at<double>(3), e = q.at<double>(4);
+      const double det = 4 * a * c - b * b;
+      if (det >= 0) break;  // an extremum or an edge, not a chessboard corner
+      // Stationary point of the quadratic: [2a b; b 2c] s = -[d; e].
+      const cv::Point2d step((b * e - 2 * c * d) / det, (b * d - 2 * a * e) / det);
+      if (std::hypot(step.x, step.y) > max_move_px) break;
+      p += step;
+      converged = std::hypot(step.x, step.y) < 1e-3;
+    }
+    // Not converged or walked off: keep the estimate it started from.
+    if (converged && cv::norm(p - cv::Point2d(corner)) <= max_move_px) {
+      corner = cv::Point2f(float(p.x), float(p.y));
+      moved[i] = true;
+    }
+  }
+  return moved;
 }
 
 double XCornerContrast(const cv::Mat& grey, const cv::Point2f& corner_px, double radius_px) {

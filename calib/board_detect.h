@@ -65,6 +65,20 @@ class BoardDetector {
 // alternately above and below their mean; the result is the mean of the
 // bright samples minus the mean of the dark ones, or 0 when the circle does
 // not show 4 sectors (an edge, a flat patch, the object in front).
+// Saddle-point corner refinement (detect.corner_refine "saddle"): `smooth`
+// is the grey image as float smoothed by a Gaussian (SaddleSmoothed); each
+// corner moves to the saddle point of the quadratic fitted to the
+// (2 half + 1)^2 grid of bilinear samples centred on it, iterated until
+// the step is below 0.001 px. A corner whose fit is not a saddle or that
+// would end more than `max_move_px` from its start keeps its position (and
+// is reported as not converged).
+// Exact (up to the fit) for any X-junction whose pattern is point-symmetric
+// about the corner within the grid plus blur, whatever the angle between its
+// edges and whatever the grey levels.
+cv::Mat SaddleSmoothed(const cv::Mat& grey, double sigma_px);
+// Returns, per corner, whether it converged (and moved).
+std::vector<bool> SaddleRefine(const cv::Mat& smooth, int half, double max_move_px,
+                               std::vector<cv::Point2f>* corners);
 double XCornerContrast(const cv::Mat& grey, const cv::Point2f& corner_px, double radius_px);
 
 // The libapriltag family name for an OpenCV dictionary name ("tag36h11" for

@@ -12,7 +12,11 @@ RELIT_OPTION_FIELDS(DetectOptions,
          "libapriltag: on frames where OpenCV finds few markers (second_pass) or on all (AprilTag boards only)")
     .Add("apriltag_below_fraction", &S::apriltag_below_fraction, 0.0, 1.0,
          "second_pass runs when OpenCV finds fewer than this share of the board's markers")
-    .Add("subpix_half_window_px", &S::subpix_half_window_px, 1, 20, "cornerSubPix half window on ChArUco corners")
+    .Add("corner_refine", &S::corner_refine, {"cornersubpix", "saddle"},
+         "sub-pixel ChArUco corners: cv::cornerSubPix, or that followed by the saddle point of a quadratic fit")
+    .Add("saddle_sigma_px", &S::saddle_sigma_px, 0.3, 5.0, "saddle: Gaussian smoothing before the quadratic fit")
+    .Add("saddle_half_window_px", &S::saddle_half_window_px, 1, 10, "saddle: half width of the fitted grid")
+    .Add("subpix_half_window_px", &S::subpix_half_window_px, 1, 20, "cornersubpix: cornerSubPix half window")
     .Add("min_corners", &S::min_corners, 4, 10000, "fewer corners: the frame gets no board pose")
     .Add("min_adjacent_markers", &S::min_adjacent_markers, 1, 2,
          "found neighbouring markers a corner needs (1: also corners next to one marker, checked in the image)")

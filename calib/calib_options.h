@@ -21,6 +21,16 @@ struct DetectOptions {
   // dictionaries; ignored (with a note) for ArUco ones.
   std::string apriltag = "second_pass";
   double apriltag_below_fraction = 0.8;
+  // Sub-pixel refinement of the ChArUco corners: "cornersubpix" is
+  // cv::cornerSubPix with subpix_half_window_px; "saddle" follows it with a
+  // quadratic fitted to the image smoothed by a Gaussian of saddle_sigma_px
+  // over a (2 saddle_half_window_px + 1)^2 grid centred on the corner, and
+  // moves to its saddle point (Lucchese & Mitra 2002). saddle halves the
+  // corner error on the demo capture but did not improve its calibration
+  // (docs/notes/calib-at-scale-2026-11-28.md): not the default.
+  std::string corner_refine = "cornersubpix";
+  double saddle_sigma_px = 1.0;
+  int saddle_half_window_px = 2;
   int subpix_half_window_px = 3;   // cv::cornerSubPix half window on ChArUco corners
   int min_corners = 6;             // fewer corners: the frame gets no board pose
   // A ChArUco corner needs this many of its two neighbouring markers found
