@@ -27,7 +27,7 @@ struct DetectOptions {
   // over a (2 saddle_half_window_px + 1)^2 grid centred on the corner, and
   // moves to its saddle point (Lucchese & Mitra 2002). saddle halves the
   // corner error on the demo capture but did not improve its calibration
-  // (docs/notes/calib-at-scale-2026-11-28.md): not the default.
+  // (docs/notes/calib-at-scale-2026-11-27c.md): not the default.
   std::string corner_refine = "cornersubpix";
   double saddle_sigma_px = 1.0;
   int saddle_half_window_px = 2;
