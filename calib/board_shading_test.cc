@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calib/board_detect.h"
+#include "calib/board_test_util.h"
 #include "core/board.h"
 
 namespace relit::calib {
@@ -49,21 +50,14 @@ ShadedBoard RenderBoard(const BoardSpec& spec, Shading shading, double blur_px,
       out.grey.at<uchar>(y, x) = cv::saturate_cast<uchar>(std::lround(255 * v));
     }
   }
-  const auto charuco = MakeCharucoBoard(spec);
-  for (const cv::Point3f& p : charuco->chessboardCorners) {
-    std::vector<cv::Point2d> in = {{margin + p.x * ppm - 0.5, margin + p.y * ppm - 0.5}}, o;
-    cv::perspectiveTransform(in, o, hm);
-    out.truth.emplace_back(o[0].x, o[0].y);
-  }
+  out.truth = WarpedCornersPx(spec, ppm, margin, hm);
   return out;
 }
 
+// The demo board: BoardSpec's 7 x 5 squares of 40 mm, 30 mm markers, with
+// the demo's 4x4 dictionary.
 BoardSpec DemoBoard() {
   BoardSpec spec;
-  spec.squares_x = 7;
-  spec.squares_y = 5;
-  spec.square_length_m = 0.04;
-  spec.marker_length_m = 0.03;
   spec.dictionary = "DICT_4X4_50";
   return spec;
 }

@@ -15,6 +15,7 @@
 #include "calib/align.h"
 #include "calib/board_detect.h"
 #include "calib/board_pose.h"
+#include "calib/board_test_util.h"
 #include "calib/bundle.h"
 #include "calib/calib_options.h"
 #include "calib/colmap_sfm.h"
@@ -102,13 +103,7 @@ cv::Mat WarpedBoard(const BoardSpec& spec, std::vector<Eigen::Vector2d>* truth) 
   cv::Mat big_h = (cv::Mat_<double>(3, 3) << 4, 0, 1.5, 0, 4, 1.5, 0, 0, 1) * h;
   cv::warpPerspective(board, warped, big_h, cv::Size(4 * 1100, 4 * 800), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 255);
   cv::resize(warped, warped, cv::Size(1100, 800), 0, 0, cv::INTER_AREA);
-  const auto charuco = MakeCharucoBoard(spec);
-  for (const cv::Point3f& p : charuco->chessboardCorners) {
-    // Board pixel centres: corner (x, y) metres is at margin + x * ppm - 0.5 in pixel-centre coordinates.
-    std::vector<cv::Point2d> in = {{margin + p.x * ppm - 0.5, margin + p.y * ppm - 0.5}}, out;
-    cv::perspectiveTransform(in, out, h);
-    truth->emplace_back(out[0].x, out[0].y);
-  }
+  *truth = WarpedCornersPx(spec, ppm, margin, h);
   return warped;
 }
 
