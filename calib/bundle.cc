@@ -5,6 +5,8 @@
 #include <cmath>
 #include <thread>
 
+#include <dlfcn.h>
+
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 #include <spdlog/spdlog.h>
@@ -61,6 +63,92 @@ struct PointCost {
   }
 };
 
+// Rolling shutter: the world point as the frame's middle-row pose sees it
+// when the row was read dt later, X' = c + Exp(-w dt) (X - c - v dt), with c
+// the camera centre, v its velocity and w the angular velocity (world).
+template <typename T>
+void MoveForRow(const T* q_xyzw, const T* t, const T* point, const T& dt, const Eigen::Vector3d& velocity,
+                const Eigen::Vector3d& angular_velocity, T* moved) {
+  const Eigen::Map<const Eigen::Quaternion<T>> q(q_xyzw);
+  const Eigen::Matrix<T, 3, 1> centre = -(q.conjugate() * Eigen::Map<const Eigen::Matrix<T, 3, 1>>(t));
+  T offset[3], turned[3];
+  const T back[3] = {-angular_velocity.x() * dt, -angular_velocity.y() * dt, -angular_velocity.z() * dt};
+  for (int i = 0; i < 3; ++i) offset[i] = point[i] - centre[i] - velocity[i] * dt;
+  ceres::AngleAxisRotatePoint(back, offset, turned);
+  for (int i = 0; i < 3; ++i) moved[i] = centre[i] + turned[i];
+}
+
+// A row's motion: its time as a fraction of the readout (RowTimeFraction)
+// and the frame's motion.
+struct RowMotion {
+  double row_fraction;
+  Eigen::Vector3d velocity, angular_velocity;
+};
+
+struct RollingCornerCost {
+  Eigen::Vector2d observed;
+  Eigen::Vector3d world;
+  bool square;
+  RowMotion row;
+  template <typename T>
+  bool operator()(const T* q, const T* t, const T* lens, const T* readout, T* residual) const {
+    const T point[3] = {T(world.x()), T(world.y()), T(world.z())};
+    T moved[3], pixel[2];
+    MoveForRow(q, t, point, readout[0] * row.row_fraction, row.velocity, row.angular_velocity, moved);
+    Project(q, t, lens, moved, square, pixel);
+    residual[0] = pixel[0] - T(observed.x());
+    residual[1] = pixel[1] - T(observed.y());
+    return true;
+  }
+};
+
+struct RollingPointCost {
+  Eigen::Vector2d observed;
+  double weight;
+  bool square;
+  RowMotion row;
+  template <typename T>
+  bool operator()(const T* q, const T* t, const T* lens, const T* point, const T* readout, T* residual) const {
+    T moved[3], pixel[2];
+    MoveForRow(q, t, point, readout[0] * row.row_fraction, row.velocity, row.angular_velocity, moved);
+    Project(q, t, lens, moved, square, pixel);
+    residual[0] = T(weight) * (pixel[0] - T(observed.x()));
+    residual[1] = T(weight) * (pixel[1] - T(observed.y()));
+    return true;
+  }
+};
+
+// The rolling-shutter state of the second solve: each frame's motion (held
+// fixed) and each video's readout time (refined).
+struct RollingShutter {
+  std::vector<FrameMotion> motion;
+  std::map<std::string, std::array<double, 1>> readout_s;
+
+  // The video's readout block of frame f, null when its motion is unknown.
+  double* Readout(const BundleProblem& p, size_t f) {
+    if (!motion[f].known) return nullptr;
+    auto it = readout_s.find(p.frames[f].video);
+    return it == readout_s.end() ? nullptr : it->second.data();
+  }
+  RowMotion Row(const BundleProblem& p, size_t f, const Eigen::Vector2d& px) const {
+    const BundleFrame& frame = p.frames[f];
+    const Intrinsics& lens = p.devices.at(frame.device);
+    return {ReadoutFraction(px, lens.width, lens.height, frame.rotation_deg), motion[f].centre_velocity_m_s,
+            motion[f].angular_velocity_rad_s};
+  }
+};
+
+RollingShutter MakeRollingShutter(const BundleProblem& p, const BundleOptions& o) {
+  std::vector<TimedFrame> timed;
+  for (const BundleFrame& f : p.frames) timed.push_back({f.video, f.time_s, f.posed, f.cam_from_world});
+  RollingShutter rs;
+  rs.motion = EstimateFrameMotion(timed, o.rolling_shutter_max_gap_s);
+  for (size_t f = 0; f < p.frames.size(); ++f) {
+    if (rs.motion[f].known && p.devices.at(p.frames[f].device).height > 0) rs.readout_s[p.frames[f].video] = {0.0};
+  }
+  return rs;
+}
+
 struct Blocks {
   std::vector<std::array<double, 4>> q;  // x, y, z, w (Eigen order)
   std::vector<std::array<double, 3>> t;
@@ -94,8 +182,13 @@ void FromBlocks(const Blocks& b, BundleProblem* p) {
   }
 }
 
-double Error(const BundleProblem& p, int frame, const Eigen::Vector3d& world, const Eigen::Vector2d& px) {
-  const Camera camera(p.devices.at(p.frames[frame].device), p.frames[frame].cam_from_world);
+double Error(const BundleProblem& p, int frame, const Eigen::Vector3d& world, const Eigen::Vector2d& px,
+             RollingShutter* rs) {
+  Rigid3 pose = p.frames[frame].cam_from_world;
+  if (const double* readout = rs ? rs->Readout(p, frame) : nullptr) {
+    pose = CamFromWorldAt(pose, rs->motion[frame], readout[0] * rs->Row(p, frame, px).row_fraction);
+  }
+  const Camera camera(p.devices.at(p.frames[frame].device), pose);
   const Eigen::Vector3d c = camera.cam_from_world() * world;
   if (!(c.z() > 0)) return std::numeric_limits<double>::infinity();
   return (camera.ProjectCameraPoint(c) - px).norm();
@@ -113,6 +206,22 @@ Inliers AllInliers(const BundleProblem& p) {
   return in;
 }
 
+// The library of dense Schur's Cholesky factorisation. For n = 6,000 (990
+// frames) Ceres' Eigen (Debian's build: SSE2) took 9.7 s, LAPACK from
+// OpenBLAS 5.0 s on one busy core, LAPACK from ATLAS (what colmap pulls in)
+// 13.6 s; the 990-frame joint refinement 279 s with Eigen, 187 s with
+// OpenBLAS. auto: LAPACK when the process's LAPACK is OpenBLAS (Debian's
+// libopenblas0-openmp; tools/install-deps does not install it, as it
+// becomes every program's BLAS, LibTorch's too).
+ceres::DenseLinearAlgebraLibraryType DenseLibrary(const std::string& choice) {
+  static const bool openblas = dlsym(RTLD_DEFAULT, "openblas_get_config") != nullptr;
+  const bool lapack = ceres::IsDenseLinearAlgebraLibraryTypeAvailable(ceres::LAPACK) &&
+                      (choice == "lapack" || (choice == "auto" && openblas));
+  RELIT_REQUIRE(lapack || choice != "lapack", "refine.dense_library: lapack, but this Ceres has no LAPACK: use "
+                "auto or eigen");
+  return lapack ? ceres::LAPACK : ceres::EIGEN;
+}
+
 // Solver settings: the Schur complement's size is 6 per frame (pose) plus the
 // lenses. Without SfM points (board corners only) it is block diagonal apart
 // from the lens rows: sparse Schur (990 frames: 0.6 s against dense 37.6 s).
@@ -128,6 +237,7 @@ void ConfigureSolver(const BundleOptions& o, int frames, bool has_points, ceres:
   } else {
     options->linear_solver_type = ceres::SPARSE_SCHUR;
   }
+  options->dense_linear_algebra_library_type = DenseLibrary(o.dense_library);
   options->max_num_iterations = o.max_iterations;
   options->num_threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   options->function_tolerance = o.function_tolerance;
@@ -146,7 +256,8 @@ class TraceIterations : public ceres::IterationCallback {
   }
 };
 
-ceres::Solver::Summary Solve(BundleProblem* p, const Inliers& inliers, const BundleOptions& o) {
+// `rs` (may be null): model the rolling shutter, refining its readout times.
+ceres::Solver::Summary Solve(BundleProblem* p, const Inliers& inliers, const BundleOptions& o, RollingShutter* rs) {
   Blocks b = ToBlocks(*p);
   std::vector<std::array<double, 3>> points;
   for (const BundlePoint& pt : p->points) points.push_back({pt.position_m.x(), pt.position_m.y(), pt.position_m.z()});
@@ -157,11 +268,20 @@ ceres::Solver::Summary Solve(BundleProblem* p, const Inliers& inliers, const Bun
     const BundleFrame& frame = p->frames[f];
     if (!frame.posed) continue;
     double* lens = b.lens.at(frame.device).data();
+    double* readout = rs ? rs->Readout(*p, f) : nullptr;
     for (size_t k = 0; k < frame.corner_ids.size(); ++k) {
       if (!inliers.corners[f][k]) continue;
-      auto* cost = new ceres::AutoDiffCostFunction<CornerCost, 2, 4, 3, kLensSize>(
-          new CornerCost{frame.corners_px[k], p->corners_world.at(frame.corner_ids[k]), p->square_pixels});
-      problem.AddResidualBlock(cost, new ceres::HuberLoss(o.huber_px), b.q[f].data(), b.t[f].data(), lens);
+      const Eigen::Vector3d& world = p->corners_world.at(frame.corner_ids[k]);
+      if (readout) {
+        auto* cost = new ceres::AutoDiffCostFunction<RollingCornerCost, 2, 4, 3, kLensSize, 1>(new RollingCornerCost{
+            frame.corners_px[k], world, p->square_pixels, rs->Row(*p, f, frame.corners_px[k])});
+        problem.AddResidualBlock(cost, new ceres::HuberLoss(o.huber_px), b.q[f].data(), b.t[f].data(), lens,
+                                 readout);
+      } else {
+        auto* cost = new ceres::AutoDiffCostFunction<CornerCost, 2, 4, 3, kLensSize>(
+            new CornerCost{frame.corners_px[k], world, p->square_pixels});
+        problem.AddResidualBlock(cost, new ceres::HuberLoss(o.huber_px), b.q[f].data(), b.t[f].data(), lens);
+      }
       used_frame[f] = true;
       used_lens[frame.device] = true;
     }
@@ -177,11 +297,18 @@ ceres::Solver::Summary Solve(BundleProblem* p, const Inliers& inliers, const Bun
       const PointObservation& obs = p->points[i].observations[k];
       const BundleFrame& frame = p->frames[obs.frame];
       if (!inliers.points[i][k] || !frame.posed || o.point_weight <= 0) continue;
-      auto* cost = new ceres::AutoDiffCostFunction<PointCost, 2, 4, 3, kLensSize, 3>(
-          new PointCost{obs.pixel_px, o.point_weight, p->square_pixels});
-      problem.AddResidualBlock(cost, new ceres::HuberLoss(o.huber_px * o.point_weight),
-                               b.q[obs.frame].data(), b.t[obs.frame].data(),
-                               b.lens.at(frame.device).data(), points[i].data());
+      double* lens = b.lens.at(frame.device).data();
+      auto* loss = new ceres::HuberLoss(o.huber_px * o.point_weight);
+      if (double* readout = rs ? rs->Readout(*p, obs.frame) : nullptr) {
+        auto* cost = new ceres::AutoDiffCostFunction<RollingPointCost, 2, 4, 3, kLensSize, 3, 1>(new RollingPointCost{
+            obs.pixel_px, o.point_weight, p->square_pixels, rs->Row(*p, obs.frame, obs.pixel_px)});
+        problem.AddResidualBlock(cost, loss, b.q[obs.frame].data(), b.t[obs.frame].data(), lens, points[i].data(),
+                                 readout);
+      } else {
+        auto* cost = new ceres::AutoDiffCostFunction<PointCost, 2, 4, 3, kLensSize, 3>(
+            new PointCost{obs.pixel_px, o.point_weight, p->square_pixels});
+        problem.AddResidualBlock(cost, loss, b.q[obs.frame].data(), b.t[obs.frame].data(), lens, points[i].data());
+      }
       used_frame[obs.frame] = true;
       used_lens[frame.device] = true;
     }
@@ -204,6 +331,13 @@ ceres::Solver::Summary Solve(BundleProblem* p, const Inliers& inliers, const Bun
       if (!constant.empty()) problem.SetManifold(lens.data(), new ceres::SubsetManifold(kLensSize, constant));
     }
   }
+  if (rs) {
+    for (auto& [video, readout] : rs->readout_s) {
+      if (!problem.HasParameterBlock(readout.data())) continue;
+      problem.SetParameterLowerBound(readout.data(), 0, 0.0);
+      problem.SetParameterUpperBound(readout.data(), 0, o.max_readout_s);
+    }
+  }
   ceres::Solver::Options options;
   bool has_points = false;
   for (auto& point : points) has_points = has_points || problem.HasParameterBlock(point.data());
@@ -223,6 +357,11 @@ ceres::Solver::Summary Solve(BundleProblem* p, const Inliers& inliers, const Bun
     }
     for (auto& [name, lens] : b.lens) {
       if (used_lens[name]) ordering->AddElementToGroup(lens.data(), 1);
+    }
+    if (rs) {
+      for (auto& [video, readout] : rs->readout_s) {
+        if (problem.HasParameterBlock(readout.data())) ordering->AddElementToGroup(readout.data(), 1);
+      }
     }
     if (ordering->NumElements() > 0 && ordering->GroupSize(0) > 0) {
       options.linear_solver_ordering.reset(ordering);
@@ -266,7 +405,7 @@ struct ErrorTally {
   double Rms() const { return inliers > 0 ? std::sqrt(squared_sum / inliers) : 0.0; }
 };
 
-BundleStats Evaluate(const BundleProblem& p, double outlier_px, Inliers* inliers) {
+BundleStats Evaluate(const BundleProblem& p, double outlier_px, Inliers* inliers, RollingShutter* rs) {
   BundleStats s;
   std::map<std::string, std::pair<double, int>> by_device;
   ErrorTally corners(outlier_px), points(outlier_px);
@@ -277,7 +416,7 @@ BundleStats Evaluate(const BundleProblem& p, double outlier_px, Inliers* inliers
     double frame_sum = 0;
     int frame_count = 0;
     for (size_t k = 0; k < frame.corner_ids.size(); ++k) {
-      const double e = Error(p, static_cast<int>(f), p.corners_world.at(frame.corner_ids[k]), frame.corners_px[k]);
+      const double e = Error(p, static_cast<int>(f), p.corners_world.at(frame.corner_ids[k]), frame.corners_px[k], rs);
       const bool inlier = corners.Add(e);
       if (inliers) inliers->corners[f][k] = inlier;
       if (!inlier) continue;
@@ -292,7 +431,7 @@ BundleStats Evaluate(const BundleProblem& p, double outlier_px, Inliers* inliers
     for (size_t k = 0; k < p.points[i].observations.size(); ++k) {
       const PointObservation& obs = p.points[i].observations[k];
       if (!p.frames[obs.frame].posed) continue;
-      const double e = Error(p, obs.frame, p.points[i].position_m, obs.pixel_px);
+      const double e = Error(p, obs.frame, p.points[i].position_m, obs.pixel_px, rs);
       const bool inlier = points.Add(e);
       if (inliers) inliers->points[i][k] = inlier;
     }
@@ -316,21 +455,37 @@ BundleStats RefineBundle(BundleProblem* problem, const BundleOptions& options) {
   BundleOptions first_options = options;
   if (options.first_function_tolerance > 0) first_options.function_tolerance = options.first_function_tolerance;
   if (options.first_max_iterations > 0) first_options.max_iterations = options.first_max_iterations;
-  ceres::Solver::Summary first = Solve(problem, inliers, first_options);
-  Evaluate(*problem, options.outlier_px, &inliers);
+  ceres::Solver::Summary first = Solve(problem, inliers, first_options, nullptr);
+  Evaluate(*problem, options.outlier_px, &inliers, nullptr);
   BundleOptions final_options = options;
   if (options.final_huber_px > 0) final_options.huber_px = options.final_huber_px;
-  ceres::Solver::Summary second = Solve(problem, inliers, final_options);
-  BundleStats stats = Evaluate(*problem, options.outlier_px, nullptr);
+  // The motion needs poses: those of the first solve are good to ~1 mm,
+  // which over a readout of milliseconds is far below a pixel.
+  RollingShutter rs;
+  if (options.rolling_shutter) rs = MakeRollingShutter(*problem, options);
+  RollingShutter* rs_used = rs.readout_s.empty() ? nullptr : &rs;
+  ceres::Solver::Summary second = Solve(problem, inliers, final_options, rs_used);
+  BundleStats stats = Evaluate(*problem, options.outlier_px, nullptr, rs_used);
+  for (const auto& [video, readout] : rs.readout_s) stats.readout_s[video] = readout[0];
+  for (size_t f = 0; f < problem->frames.size(); ++f) {
+    if (rs_used && rs.motion[f].known) stats.moving_frames[problem->frames[f].video]++;
+  }
   stats.iterations = static_cast<int>(first.iterations.size() + second.iterations.size());
   stats.final_iterations = static_cast<int>(second.iterations.size());
   stats.initial_cost = first.initial_cost;
   stats.final_cost = second.final_cost;
   stats.linear_solver = ceres::LinearSolverTypeToString(second.linear_solver_type_used);
+  stats.dense_library = second.linear_solver_type_used == ceres::DENSE_SCHUR
+                            ? ceres::DenseLinearAlgebraLibraryTypeToString(DenseLibrary(options.dense_library))
+                            : "";
   stats.solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  spdlog::info("bundle: {} frames, {} points, {} ({} + {} iterations, {:.1f} s)", problem->frames.size(),
-               problem->points.size(), stats.linear_solver, first.iterations.size(), second.iterations.size(),
-               stats.solve_s);
+  spdlog::info("bundle: {} frames, {} points, {}{} ({} + {} iterations, {:.1f} s)", problem->frames.size(),
+               problem->points.size(), stats.linear_solver, stats.dense_library.empty() ? "" : " " + stats.dense_library,
+               first.iterations.size(), second.iterations.size(), stats.solve_s);
+  for (const auto& [video, readout] : stats.readout_s) {
+    spdlog::info("bundle: {} rolling shutter: readout {:.2f} ms ({} frames with motion)", video, readout * 1e3,
+                 stats.moving_frames[video]);
+  }
   // Where the time goes (residual/Jacobian evaluation vs linear solver) and why Ceres stopped.
   spdlog::debug("bundle: first solve: {}", first.FullReport());
   spdlog::debug("bundle: second solve: {}", second.FullReport());
@@ -338,7 +493,7 @@ BundleStats RefineBundle(BundleProblem* problem, const BundleOptions& options) {
 }
 
 BundleStats EvaluateBundle(const BundleProblem& problem, double outlier_px) {
-  return Evaluate(problem, outlier_px, nullptr);
+  return Evaluate(problem, outlier_px, nullptr, nullptr);
 }
 
 }  // namespace relit::calib

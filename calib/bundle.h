@@ -12,6 +12,7 @@
 
 #include <Eigen/Core>
 
+#include "calib/rolling_shutter.h"
 #include "core/camera.h"
 
 namespace relit::calib {
@@ -32,6 +33,11 @@ struct BundleFrame {
   Rigid3 cam_from_world;
   std::vector<int> corner_ids;           // ChArUco corners seen
   std::vector<Eigen::Vector2d> corners_px;
+  // Rolling shutter (calib/rolling_shutter.h): frames of one video share a
+  // clock and a readout time; "" = a still photo, read as a global shutter.
+  std::string video;
+  double time_s = 0;                     // the middle row's time on the video's clock
+  int rotation_deg = 0;                  // the video's display rotation (ReadoutFraction)
 };
 
 struct BundleProblem {
@@ -60,8 +66,15 @@ struct BundleOptions {
   double function_tolerance = 1e-6;
   // First solve (0: function_tolerance): it only has to bring the outliers
   // out for the second solve to drop.
+  std::string dense_library = "auto";  // auto | eigen | lapack: dense Schur's Cholesky (calib's refine.*)
   double first_function_tolerance = 0;
   int first_max_iterations = 0;  // the first solve's iteration cap (0: max_iterations)
+  // The second solve models each video's rolling shutter: its readout time
+  // is refined within [0, max_readout_s], each frame's motion read from its
+  // neighbours at most rolling_shutter_max_gap_s away.
+  bool rolling_shutter = false;
+  double rolling_shutter_max_gap_s = 0.1;
+  double max_readout_s = 0.05;
 };
 
 struct BundleStats {
@@ -75,7 +88,10 @@ struct BundleStats {
   int final_iterations = 0;              // the second solve
   double initial_cost = 0, final_cost = 0;
   std::string linear_solver;             // the one Ceres used
+  std::string dense_library;             // EIGEN or LAPACK under dense Schur, else ""
   double solve_s = 0;                    // both Ceres solves, wall time
+  std::map<std::string, double> readout_s;  // per video with a rolling shutter refined
+  std::map<std::string, int> moving_frames;  // per video: frames whose motion was known
 };
 
 // Refines `problem` in place. Frames with posed = false are left out; a

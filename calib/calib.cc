@@ -42,9 +42,13 @@ BundleOptions ToBundleOptions(const CalibOptions& o, bool with_points) {
   b.threads = o.sfm.threads;
   b.linear_solver = o.refine.linear_solver;
   b.dense_schur_max_frames = o.refine.dense_schur_max_frames;
+  b.dense_library = o.refine.dense_library;
   b.function_tolerance = o.refine.function_tolerance;
   b.first_function_tolerance = o.refine.first_function_tolerance;
   b.first_max_iterations = o.refine.first_max_iterations;
+  b.rolling_shutter = o.refine.rolling_shutter;
+  b.rolling_shutter_max_gap_s = o.refine.rolling_shutter_max_gap_s;
+  b.max_readout_s = o.refine.max_readout_s;
   return b;
 }
 
@@ -59,7 +63,10 @@ nlohmann::json StatsJson(const BundleStats& s) {
           {"iterations", s.iterations},
           {"final_iterations", s.final_iterations},
           {"linear_solver", s.linear_solver},
-          {"solve_s", s.solve_s}};
+          {"dense_library", s.dense_library},
+          {"solve_s", s.solve_s},
+          {"readout_s", s.readout_s},
+          {"rolling_shutter_frames", s.moving_frames}};
 }
 
 std::string FrameFile(const std::string& dir, const CaptureFrame& frame, const std::string& ext) {
@@ -129,6 +136,11 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
     b.device = LensOf(f.capture.device);
     b.corner_ids = f.board.corner_ids;
     b.corners_px = f.board.corners_px;
+    // Photos of a geometry pass have no clock: read as global-shutter stills.
+    const CaptureVideo& video = input.videos.at(f.capture.device);
+    b.video = video.is_video ? f.capture.device : "";
+    b.time_s = f.capture.time_s;
+    b.rotation_deg = video.rotation_deg;
     double rms = 0;
     b.posed = BoardPose(f.board, problem.devices.at(b.device), options.board, options.detect.min_corners,
                         &b.cam_from_world, &rms);

@@ -110,6 +110,9 @@ struct RefineOptions {
   // (lenses, long tracks, cross pairs). Board corners alone always take
   // sparse Schur under auto (docs/notes/calib-at-scale-2026-11-27.md).
   int dense_schur_max_frames = 1000;
+  // Dense Schur's Cholesky: "auto" (LAPACK when it is OpenBLAS, else
+  // Ceres' Eigen), "eigen" or "lapack" (calib/bundle.cc DenseLibrary).
+  std::string dense_library = "auto";
   // Ceres stops when the cost changes by less than this fraction. At ~400
   // images 1e-6 (30 iterations in all) placed every device as 1e-9 did
   // (100 + 100 iterations, unconverged).
@@ -120,6 +123,17 @@ struct RefineOptions {
   // The first solve's iteration cap (0: max_iterations). At 990 frames the
   // first solve took 18 iterations to 1e-4 (6 at ~300 frames).
   int first_max_iterations = 0;
+  // Rolling shutter (calib/rolling_shutter.h): the second solve refines
+  // each video's readout time within [0, max_readout_s], each frame's motion
+  // read from its neighbours at most rolling_shutter_max_gap_s away.
+  // Off by default: on the synthetic captures (1 ms readouts) it bought
+  // nothing at 990 images and on the tiny capture's 19 board-only frames it
+  // read phone V's readout as 6.8 ms and moved phone V from 4.7 to 8.1 mm
+  // (docs/notes/calib-at-scale-2026-11-27d.md). For phones with long
+  // readouts filmed with enough frames.
+  bool rolling_shutter = false;
+  double rolling_shutter_max_gap_s = 0.1;
+  double max_readout_s = 0.05;
   double max_corner_rms_px = 1.0;  // board-corner RMS above this: calibration rejected
   double max_ratio_error = 0.04;   // |measured/specified marker-to-square ratio - 1|
 

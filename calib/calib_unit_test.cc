@@ -377,6 +377,26 @@ TEST(BundleTest, AutoSolverFollowsPointsAndFrames) {
   EXPECT_EQ(RefineBundle(&corners_only, o).linear_solver, "DENSE_SCHUR");
 }
 
+// Dense Schur's Cholesky from Ceres' Eigen or from LAPACK (OpenBLAS when
+// installed, auto's choice then): the same solution.
+TEST(BundleTest, DenseLibrariesAgree) {
+  std::vector<Rigid3> poses;
+  const BundleProblem base = BoardAndPoints(0.1, &poses);
+  BundleProblem eigen = base, lapack = base;
+  BundleOptions o;
+  o.linear_solver = "dense_schur";
+  o.function_tolerance = 1e-10;
+  o.dense_library = "eigen";
+  EXPECT_EQ(RefineBundle(&eigen, o).dense_library, "EIGEN");
+  o.dense_library = "lapack";
+  EXPECT_EQ(RefineBundle(&lapack, o).dense_library, "LAPACK");
+  EXPECT_NEAR(lapack.devices["view"].fx, eigen.devices["view"].fx, 1e-6);
+  for (int i = 0; i < 16; ++i) {
+    EXPECT_LT((lapack.frames[i].cam_from_world.translation - eigen.frames[i].cam_from_world.translation).norm(),
+              1e-8);
+  }
+}
+
 // refine.first_max_iterations caps the first solve (the one before the
 // outliers are dropped) and leaves the second to its own criterion.
 TEST(BundleTest, FirstSolveIterationCap) {

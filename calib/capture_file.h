@@ -4,6 +4,7 @@
 // images, checked for what calib relies on.
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,12 @@
 namespace relit::calib {
 
 using relit::CaptureFrame;
+
+// What the rolling-shutter model needs of each input.
+struct CaptureVideo {
+  bool is_video = true;   // false: the geometry pass's photos
+  int rotation_deg = 0;   // display rotation (capture.json inputs.*.rotation_deg)
+};
 
 struct CaptureInput {
   std::vector<CaptureFrame> view;
@@ -22,6 +29,7 @@ struct CaptureInput {
   int view_width_px = 0, view_height_px = 0;
   int light_width_px = 0, light_height_px = 0;
   double sync_offset_s = 0;
+  std::map<std::string, CaptureVideo> videos;  // "view", "light" and, with a geometry pass, "geometry"
 };
 
 // Reads W/capture/capture.json. Throws relit::Error naming the file for a

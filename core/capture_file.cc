@@ -91,6 +91,14 @@ std::vector<RejectedFrame> ReadRejected(const json& capture, const std::string& 
   return result;
 }
 
+// A video's display rotation (0 when not recorded).
+int ReadRotation(const json& input, const std::string& where) {
+  const int rotation = OptionalInt(input, "rotation_deg", where, 0);
+  RELIT_REQUIRE(rotation == 0 || rotation == 90 || rotation == 180 || rotation == 270, where,
+                ".rotation_deg must be 0, 90, 180 or 270, got ", rotation);
+  return rotation;
+}
+
 // A phone's entry of `inputs`: its output size is required.
 CaptureSource ReadPhone(const json& inputs, const std::string& device, const std::string& path) {
   const std::string where = path + ": inputs." + device;
@@ -103,6 +111,7 @@ CaptureSource ReadPhone(const json& inputs, const std::string& device, const std
   if (input.contains("transfer_used") && !input["transfer_used"].is_null()) {
     source.transfer_used = JsonString(input, "transfer_used", where);
   }
+  source.rotation_deg = ReadRotation(input, where);
   return source;
 }
 
@@ -114,6 +123,7 @@ CaptureSource ReadGeometrySource(const json& inputs, const std::string& path) {
   CaptureSource source;
   source.type = input.contains("type") ? JsonString(input, "type", where) : "";
   ReadOwnSize(input, where, &source.output_width_px, &source.output_height_px);
+  source.rotation_deg = ReadRotation(input, where);
   return source;
 }
 

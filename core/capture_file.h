@@ -46,6 +46,10 @@ struct CaptureSource {
   int output_width_px = 0;         // size of the written frames (0 for photos: per frame)
   int output_height_px = 0;
   std::string transfer_used;       // how phone V's video was linearised: srgb, gamma2.2, hlg, pq
+  // Clockwise display rotation the written frames were turned by (0, 90,
+  // 180, 270): the sensor's rows, read out in time order, run along the
+  // written frames' columns at 90 and 270.
+  int rotation_deg = 0;
 };
 
 struct CaptureFile {
