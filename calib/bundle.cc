@@ -34,6 +34,16 @@ void Project(const T* q_xyzw, const T* t, const T* lens, const T* point, bool sq
   pixel[1] = (square ? lens[0] : lens[1]) * yd + lens[3];
 }
 
+// The weighted reprojection residual of a world point, shared by the costs.
+template <typename T>
+void Residual(const T* q, const T* t, const T* lens, const T* point, bool square, const Eigen::Vector2d& observed,
+              double weight, T* residual) {
+  T pixel[2];
+  Project(q, t, lens, point, square, pixel);
+  residual[0] = T(weight) * (pixel[0] - T(observed.x()));
+  residual[1] = T(weight) * (pixel[1] - T(observed.y()));
+}
+
 struct CornerCost {
   Eigen::Vector2d observed;
   Eigen::Vector3d world;
@@ -41,10 +51,7 @@ struct CornerCost {
   template <typename T>
   bool operator()(const T* q, const T* t, const T* lens, T* residual) const {
     const T point[3] = {T(world.x()), T(world.y()), T(world.z())};
-    T pixel[2];
-    Project(q, t, lens, point, square, pixel);
-    residual[0] = pixel[0] - T(observed.x());
-    residual[1] = pixel[1] - T(observed.y());
+    Residual(q, t, lens, point, square, observed, 1.0, residual);
     return true;
   }
 };
@@ -55,30 +62,12 @@ struct PointCost {
   bool square;
   template <typename T>
   bool operator()(const T* q, const T* t, const T* lens, const T* point, T* residual) const {
-    T pixel[2];
-    Project(q, t, lens, point, square, pixel);
-    residual[0] = T(weight) * (pixel[0] - T(observed.x()));
-    residual[1] = T(weight) * (pixel[1] - T(observed.y()));
+    Residual(q, t, lens, point, square, observed, weight, residual);
     return true;
   }
 };
 
-// Rolling shutter: the world point as the frame's middle-row pose sees it
-// when the row was read dt later, X' = c + Exp(-w dt) (X - c - v dt), with c
-// the camera centre, v its velocity and w the angular velocity (world).
-template <typename T>
-void MoveForRow(const T* q_xyzw, const T* t, const T* point, const T& dt, const Eigen::Vector3d& velocity,
-                const Eigen::Vector3d& angular_velocity, T* moved) {
-  const Eigen::Map<const Eigen::Quaternion<T>> q(q_xyzw);
-  const Eigen::Matrix<T, 3, 1> centre = -(q.conjugate() * Eigen::Map<const Eigen::Matrix<T, 3, 1>>(t));
-  T offset[3], turned[3];
-  const T back[3] = {-angular_velocity.x() * dt, -angular_velocity.y() * dt, -angular_velocity.z() * dt};
-  for (int i = 0; i < 3; ++i) offset[i] = point[i] - centre[i] - velocity[i] * dt;
-  ceres::AngleAxisRotatePoint(back, offset, turned);
-  for (int i = 0; i < 3; ++i) moved[i] = centre[i] + turned[i];
-}
-
-// A row's motion: its time as a fraction of the readout (RowTimeFraction)
+// A row's motion: its time as a fraction of the readout (ReadoutFraction)
 // and the frame's motion.
 struct RowMotion {
   double row_fraction;
@@ -93,11 +82,9 @@ struct RollingCornerCost {
   template <typename T>
   bool operator()(const T* q, const T* t, const T* lens, const T* readout, T* residual) const {
     const T point[3] = {T(world.x()), T(world.y()), T(world.z())};
-    T moved[3], pixel[2];
+    T moved[3];
     MoveForRow(q, t, point, readout[0] * row.row_fraction, row.velocity, row.angular_velocity, moved);
-    Project(q, t, lens, moved, square, pixel);
-    residual[0] = pixel[0] - T(observed.x());
-    residual[1] = pixel[1] - T(observed.y());
+    Residual(q, t, lens, moved, square, observed, 1.0, residual);
     return true;
   }
 };
@@ -109,11 +96,9 @@ struct RollingPointCost {
   RowMotion row;
   template <typename T>
   bool operator()(const T* q, const T* t, const T* lens, const T* point, const T* readout, T* residual) const {
-    T moved[3], pixel[2];
+    T moved[3];
     MoveForRow(q, t, point, readout[0] * row.row_fraction, row.velocity, row.angular_velocity, moved);
-    Project(q, t, lens, moved, square, pixel);
-    residual[0] = T(weight) * (pixel[0] - T(observed.x()));
-    residual[1] = T(weight) * (pixel[1] - T(observed.y()));
+    Residual(q, t, lens, moved, square, observed, weight, residual);
     return true;
   }
 };
@@ -184,12 +169,15 @@ void FromBlocks(const Blocks& b, BundleProblem* p) {
 
 double Error(const BundleProblem& p, int frame, const Eigen::Vector3d& world, const Eigen::Vector2d& px,
              RollingShutter* rs) {
-  Rigid3 pose = p.frames[frame].cam_from_world;
+  const Camera camera(p.devices.at(p.frames[frame].device), p.frames[frame].cam_from_world);
+  Eigen::Vector3d seen = world;
   if (const double* readout = rs ? rs->Readout(p, frame) : nullptr) {
-    pose = CamFromWorldAt(pose, rs->motion[frame], readout[0] * rs->Row(p, frame, px).row_fraction);
+    const Rigid3& pose = p.frames[frame].cam_from_world;
+    const RowMotion row = rs->Row(p, frame, px);
+    MoveForRow(pose.rotation.coeffs().data(), pose.translation.data(), world.data(), readout[0] * row.row_fraction,
+               row.velocity, row.angular_velocity, seen.data());
   }
-  const Camera camera(p.devices.at(p.frames[frame].device), pose);
-  const Eigen::Vector3d c = camera.cam_from_world() * world;
+  const Eigen::Vector3d c = camera.cam_from_world() * seen;
   if (!(c.z() > 0)) return std::numeric_limits<double>::infinity();
   return (camera.ProjectCameraPoint(c) - px).norm();
 }
@@ -476,7 +464,7 @@ BundleStats RefineBundle(BundleProblem* problem, const BundleOptions& options) {
   stats.final_cost = second.final_cost;
   stats.linear_solver = ceres::LinearSolverTypeToString(second.linear_solver_type_used);
   stats.dense_library = second.linear_solver_type_used == ceres::DENSE_SCHUR
-                            ? ceres::DenseLinearAlgebraLibraryTypeToString(DenseLibrary(options.dense_library))
+                            ? ceres::DenseLinearAlgebraLibraryTypeToString(second.dense_linear_algebra_library_type)
                             : "";
   stats.solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   spdlog::info("bundle: {} frames, {} points, {}{} ({} + {} iterations, {:.1f} s)", problem->frames.size(),

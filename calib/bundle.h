@@ -64,9 +64,9 @@ struct BundleOptions {
   std::string linear_solver = "auto";  // auto | dense_schur | sparse_schur | iterative_schur
   int dense_schur_max_frames = 1000;   // auto: dense Schur with points up to this many posed frames (calib's refine.*)
   double function_tolerance = 1e-6;
+  std::string dense_library = "auto";  // auto | eigen | lapack: dense Schur's Cholesky (calib's refine.*)
   // First solve (0: function_tolerance): it only has to bring the outliers
   // out for the second solve to drop.
-  std::string dense_library = "auto";  // auto | eigen | lapack: dense Schur's Cholesky (calib's refine.*)
   double first_function_tolerance = 0;
   int first_max_iterations = 0;  // the first solve's iteration cap (0: max_iterations)
   // The second solve models each video's rolling shutter: its readout time

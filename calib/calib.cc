@@ -137,10 +137,10 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
     b.corner_ids = f.board.corner_ids;
     b.corners_px = f.board.corners_px;
     // Photos of a geometry pass have no clock: read as global-shutter stills.
-    const CaptureVideo& video = input.videos.at(f.capture.device);
-    b.video = video.is_video ? f.capture.device : "";
+    const CaptureSource& source = input.sources.at(f.capture.device);
+    b.video = source.type == "photos" ? "" : f.capture.device;
     b.time_s = f.capture.time_s;
-    b.rotation_deg = video.rotation_deg;
+    b.rotation_deg = source.rotation_deg;
     double rms = 0;
     b.posed = BoardPose(f.board, problem.devices.at(b.device), options.board, options.detect.min_corners,
                         &b.cam_from_world, &rms);

@@ -44,9 +44,7 @@ CaptureInput ReadCaptureFile(const std::string& workspace) {
   input.light_width_px = file.inputs.at("light").output_width_px;
   input.light_height_px = file.inputs.at("light").output_height_px;
   input.sync_offset_s = file.sync_offset_s;
-  for (const auto& [device, source] : file.inputs) {
-    input.videos[device] = {device != "geometry" || source.type != "photos", source.rotation_deg};
-  }
+  input.sources = file.inputs;
   for (const CaptureFrame& frame : input.view) {
     RELIT_REQUIRE(!frame.linear.empty(), path, ": phone V frame ", frame.name,
                   " has no linear EXR ('linear'): rerun relit-capture");

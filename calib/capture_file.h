@@ -14,12 +14,6 @@ namespace relit::calib {
 
 using relit::CaptureFrame;
 
-// What the rolling-shutter model needs of each input.
-struct CaptureVideo {
-  bool is_video = true;   // false: the geometry pass's photos
-  int rotation_deg = 0;   // display rotation (capture.json inputs.*.rotation_deg)
-};
-
 struct CaptureInput {
   std::vector<CaptureFrame> view;
   std::vector<CaptureFrame> light;
@@ -29,7 +23,9 @@ struct CaptureInput {
   int view_width_px = 0, view_height_px = 0;
   int light_width_px = 0, light_height_px = 0;
   double sync_offset_s = 0;
-  std::map<std::string, CaptureVideo> videos;  // "view", "light" and, with a geometry pass, "geometry"
+  // capture.json's inputs: "view", "light" and, with a geometry pass,
+  // "geometry" (type "video" or "photos"); their display rotations.
+  std::map<std::string, CaptureSource> sources;
 };
 
 // Reads W/capture/capture.json. Throws relit::Error naming the file for a

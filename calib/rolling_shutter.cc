@@ -58,15 +58,4 @@ double ReadoutFraction(const Eigen::Vector2d& px, int width, int height, int rot
   }
 }
 
-Rigid3 CamFromWorldAt(const Rigid3& cam_from_world, const FrameMotion& motion, double dt_s) {
-  if (!motion.known || dt_s == 0) return cam_from_world;
-  const Eigen::Vector3d turn = motion.angular_velocity_rad_s * dt_s;
-  const Eigen::Quaterniond spin(Eigen::AngleAxisd(turn.norm(), turn.norm() > 0 ? turn.normalized()
-                                                                                : Eigen::Vector3d::UnitZ()));
-  const Eigen::Quaterniond world_from_cam = spin * cam_from_world.rotation.conjugate();
-  const Eigen::Vector3d centre = Centre(cam_from_world) + motion.centre_velocity_m_s * dt_s;
-  const Eigen::Quaterniond rotation = world_from_cam.conjugate();
-  return Rigid3(rotation, -(rotation * centre));
-}
-
 }  // namespace relit::calib

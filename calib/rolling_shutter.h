@@ -16,6 +16,8 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <ceres/rotation.h>
 
 #include "core/camera.h"
 
@@ -49,7 +51,21 @@ std::vector<FrameMotion> EstimateFrameMotion(const std::vector<TimedFrame>& fram
 // rotation), so at 90 and 270 the readout runs along x.
 double ReadoutFraction(const Eigen::Vector2d& px, int width, int height, int rotation_deg);
 
-// The pose at `dt_s` after the frame's middle row under `motion`.
-Rigid3 CamFromWorldAt(const Rigid3& cam_from_world, const FrameMotion& motion, double dt_s);
+// A world point moved so that the frame's middle-row pose (q_xyzw, t:
+// cam_from_world) sees it where the camera `dt` later saw `point`:
+// X' = c + Exp(-w dt) (X - c - v dt), with c the camera centre, v its
+// velocity and w its angular velocity (world). Templated for Ceres' Jets:
+// the refinement's costs and its error report use this one function.
+template <typename T>
+void MoveForRow(const T* q_xyzw, const T* t, const T* point, const T& dt, const Eigen::Vector3d& velocity,
+                const Eigen::Vector3d& angular_velocity, T* moved) {
+  const Eigen::Map<const Eigen::Quaternion<T>> q(q_xyzw);
+  const Eigen::Matrix<T, 3, 1> centre = -(q.conjugate() * Eigen::Map<const Eigen::Matrix<T, 3, 1>>(t));
+  T offset[3], turned[3];
+  const T back[3] = {-angular_velocity.x() * dt, -angular_velocity.y() * dt, -angular_velocity.z() * dt};
+  for (int i = 0; i < 3; ++i) offset[i] = point[i] - centre[i] - velocity[i] * dt;
+  ceres::AngleAxisRotatePoint(back, offset, turned);
+  for (int i = 0; i < 3; ++i) moved[i] = centre[i] + turned[i];
+}
 
 }  // namespace relit::calib

@@ -55,9 +55,18 @@ TEST(RollingShutterTest, MotionFromNeighboursOfTheSameVideo) {
                                      Orbit(i / fps - 1e-5, rate).Inverse().translation) / 2e-5;
     EXPECT_LT((motion[i].centre_velocity_m_s - truth_v).norm(), 0.04 * truth_v.norm()) << i;
     EXPECT_NEAR(motion[i].angular_velocity_rad_s.norm(), 1.0, 0.15) << i;
-    // The pose 4 ms later, from the motion, matches the path's (it moved ~2 mm).
-    const Rigid3 later = CamFromWorldAt(frames[i].cam_from_world, motion[i], 0.004);
-    EXPECT_LT((later.Inverse().translation - Orbit(i / fps + 0.004, rate).Inverse().translation).norm(), 1e-4);
+    // 4 ms later (the camera moved ~2 mm): its centre, and a point on the
+    // board as the middle-row pose sees it moved (MoveForRow) against the
+    // path's own pose then.
+    const Rigid3& mid = frames[i].cam_from_world;
+    const Rigid3 later = Orbit(i / fps + 0.004, rate);
+    const Eigen::Vector3d centre = mid.Inverse().translation + motion[i].centre_velocity_m_s * 0.004;
+    EXPECT_LT((centre - later.Inverse().translation).norm(), 1e-4);
+    const Eigen::Vector3d board_point(0.05, -0.03, 0);
+    Eigen::Vector3d moved;
+    MoveForRow(mid.rotation.coeffs().data(), mid.translation.data(), board_point.data(), 0.004,
+               motion[i].centre_velocity_m_s, motion[i].angular_velocity_rad_s, moved.data());
+    EXPECT_LT(((mid * moved) - (later * board_point)).norm(), 1e-4);
   }
   EXPECT_FALSE(motion[5].known);
   EXPECT_FALSE(motion[6].known);
