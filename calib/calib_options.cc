@@ -38,10 +38,15 @@ RELIT_OPTION_FIELDS(SfmOptions,
          "COLMAP's incremental mapper, or frames seeded with their board poses (faster, less accurate)")
     .Add("seed_min_corners", &S::seed_min_corners, 4, 10000, "board corners a frame needs to seed the model")
     .Add("max_features", &S::max_features, 100, 100000, "SIFT features per image")
+    .Add("first_octave", &S::first_octave, -1, 0,
+         "SIFT's first octave: -1 doubles the image first (COLMAP's default), 0 does not (~3x faster, fewer features)")
     .Add("colmap", &S::colmap, "the COLMAP executable")
     .Add("sequential_overlap", &S::sequential_overlap, 1, 1000,
          "neighbours matched in each phone's frame order (incremental)")
     .Add("seeded_overlap", &S::seeded_overlap, 1, 1000, "the same for board_seeded")
+    .Add("matcher", &S::matcher, {"opencv", "colmap"},
+         "SIFT matching: OpenCV, every descriptor pair by one matrix product (COLMAP verifies), or COLMAP's own "
+         "(FLANN, ~10x slower per pair on the CPU)")
     .Add("ransac_trials", &S::ransac_trials, 10, 1000000, "geometric verification trials per image pair")
     .Add("cross_pair_max_angle_deg", &S::cross_pair_max_angle_deg, 0.0, 180.0,
          "V/L frame pairs matched across phones within this angle")
@@ -66,7 +71,7 @@ RELIT_OPTION_FIELDS(RefineOptions,
     .Add("max_iterations", &S::max_iterations, 1, 100000, "Ceres iterations")
     .Add("linear_solver", &S::linear_solver, {"auto", "dense_schur", "sparse_schur", "iterative_schur"},
          "Ceres linear solver (auto: dense Schur with SfM points up to dense_schur_max_frames frames, "
-         "else sparse Schur)")
+         "else sparse Schur; iterative_schur applies with SfM points, sparse Schur on board corners alone)")
     .Add("dense_schur_max_frames", &S::dense_schur_max_frames, 0, 1000000,
          "auto's switch to sparse Schur (400 before 2026-11-27)")
     .Add("dense_library", &S::dense_library, {"auto", "eigen", "lapack"},

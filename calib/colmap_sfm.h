@@ -1,7 +1,8 @@
 // Structure from motion with the COLMAP command line (Debian's colmap 3.8,
 // CPU only): feature extraction per phone with its board-calibrated lens,
-// sequential matching in each phone's frame order, cross-phone pairs
-// ("loop closure" between the two phones) imported as a pair list, then
+// matching of sequential pairs in each phone's frame order and of
+// cross-phone pairs ("loop closure" between the two phones), by OpenCV
+// (feature_matching.h) and verified by COLMAP, or by COLMAP alone; then
 // either the incremental mapper ("incremental") or, with the board's poses
 // as known poses ("board_seeded"), point_triangulator on those poses and
 // image_registrator for the frames the board cannot place; and a text
@@ -11,6 +12,7 @@
 // centre.
 #pragma once
 
+#include <functional>
 #include <map>
 #include <string>
 #include <utility>
@@ -19,6 +21,8 @@
 #include <Eigen/Core>
 
 #include "core/camera.h"
+
+struct sqlite3_stmt;
 
 namespace relit::calib {
 
@@ -36,6 +40,11 @@ struct SfmRunOptions {
   int threads = 0;
   int min_registered = 6;
   int max_features = 8192;  // SIFT features per image (COLMAP's default)
+  int first_octave = -1;    // SIFT's first octave (COLMAP's default -1: the image doubled first)
+  // "opencv": descriptors matched by OpenCV (calib/feature_matching.h), then
+  // verified by COLMAP; "colmap": COLMAP's own sequential_matcher and
+  // matches_importer (FLANN, ~10x slower per pair on the CPU).
+  std::string matcher = "opencv";
   // Known cam_from_world poses by image name (board_seeded); empty: the
   // incremental mapper builds the model from scratch.
   std::map<std::string, Rigid3> known_poses;
@@ -86,6 +95,9 @@ SfmModel ReadColmapTextModel(const std::string& dir);
 // COLMAP database.
 void ReadColmapDatabase(const std::string& path, std::map<std::string, int>* keypoints,
                         int* verified_pairs);
+
+// Runs one SQL query on a COLMAP database (read-only), calling `row` per row.
+void QueryColmapDatabase(const std::string& path, const char* sql, const std::function<void(sqlite3_stmt*)>& row);
 
 // COLMAP's image and camera ids by image name, from a database.
 struct ColmapIds {
