@@ -28,7 +28,7 @@ ImagePairs SequentialPairs(std::vector<std::string> names, int overlap) {
   for (size_t a = 0; a < names.size(); ++a) {
     for (int k = 0; k < overlap && a + k < names.size(); ++k) {
       add(a, a + k);
-      if (k < 30) add(a, a + (size_t(1) << k));
+      if (k < 40) add(a, a + (size_t(1) << k));  // 2^40 images: beyond any capture (no shift overflow)
     }
   }
   return pairs;
@@ -63,6 +63,7 @@ std::map<std::string, Descriptors> ReadDescriptors(const std::string& database) 
 
 // Rows as unit float vectors: the dot product of two is the cosine of their angle.
 cv::Mat UnitRows(const Descriptors& d) {
+  if (d.rows == 0) return {};
   cv::Mat out;
   cv::Mat(d.rows, 128, CV_8U, const_cast<uint8_t*>(d.data.data())).convertTo(out, CV_32F);
   for (int r = 0; r < out.rows; ++r) {
