@@ -238,6 +238,7 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   }
   const SfmResult sfm = RunColmapSfm(images, lenses, pairs, run);
   for (const auto& [step, seconds] : sfm.timings_s) (*timings_s)["colmap_" + step] = seconds;
+  if (so.matcher == "opencv") (*timings_s)["sfm_descriptor_matching"] = sfm.descriptor_matching_s;
 
   // Align the model to the board frame on camera centres.
   std::vector<Eigen::Vector3d> src, dst;
@@ -306,7 +307,8 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
                          {"rms_m", fit.rms_m},
                          {"scale_m_per_unit", fit.transform.scale}}},
           {"unregistered", unregistered},
-          {"timings_s", sfm.timings_s}};
+          {"timings_s", sfm.timings_s},
+          {"descriptor_matching_s", sfm.descriptor_matching_s}};
 }
 
 nlohmann::json CheckBoardScale(const std::vector<CalibFrame>& frames, const BundleProblem& problem,

@@ -267,7 +267,7 @@ void MatchWithOpenCv(const std::vector<SfmImage>& images, const std::vector<std:
     spdlog::warn("sfm: {} image pairs left out: COLMAP extracted no features from one of their images (see "
                  "colmap_feature_extractor.log)", stats.pairs_without_descriptors);
   }
-  result->timings_s["opencv_matching"] = stats.seconds;
+  result->descriptor_matching_s = stats.seconds;
   result->timings_s["matches_importer"] = RunStep(
       o, "matches_importer",
       common + " --match_list_path " + ShellQuote(raw) + " --match_type raw --SiftMatching.use_gpu 0" +

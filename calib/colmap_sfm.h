@@ -74,6 +74,7 @@ struct SfmResult {
   int verified_pairs = 0;                          // image pairs with geometrically verified matches
   std::map<std::string, std::string> unregistered; // image -> likely reason
   std::map<std::string, double> timings_s;         // per COLMAP step
+  double descriptor_matching_s = 0;                // relit's own matching (matcher "opencv"), not a COLMAP step
 };
 
 // Runs COLMAP. Lenses are given per device (OPENCV model, fixed during
