@@ -199,8 +199,7 @@ Inliers AllInliers(const BundleProblem& p) {
 // OpenBLAS 5.0 s on one busy core, LAPACK from ATLAS (what colmap pulls in)
 // 13.6 s; the 990-frame joint refinement 279 s with Eigen, 187 s with
 // OpenBLAS. auto: LAPACK when the process's LAPACK is OpenBLAS (Debian's
-// libopenblas0-openmp; tools/install-deps does not install it, as it
-// becomes every program's BLAS, LibTorch's too).
+// libopenblas0-openmp, which tools/install-deps installs), Eigen otherwise.
 ceres::DenseLinearAlgebraLibraryType DenseLibrary(const std::string& choice) {
   static const bool openblas = dlsym(RTLD_DEFAULT, "openblas_get_config") != nullptr;
   const bool lapack = ceres::IsDenseLinearAlgebraLibraryTypeAvailable(ceres::LAPACK) &&

@@ -45,8 +45,11 @@ RELIT_OPTION_FIELDS(SfmOptions,
          "neighbours matched in each phone's frame order (incremental)")
     .Add("seeded_overlap", &S::seeded_overlap, 1, 1000, "the same for board_seeded")
     .Add("matcher", &S::matcher, {"opencv", "colmap"},
-         "SIFT matching: OpenCV, every descriptor pair by one matrix product (COLMAP verifies), or COLMAP's own "
-         "(FLANN, ~10x slower per pair on the CPU)")
+         "SIFT matching: OpenCV, every descriptor pair by one matrix product, or COLMAP's own (FLANN, ~10x slower "
+         "per pair on the CPU; it verifies the pairs itself)")
+    .Add("verification", &S::verification, {"opencv", "colmap"},
+         "with matcher opencv, each pair's essential-matrix RANSAC: in process on all cores, or by COLMAP's "
+         "matches_importer (one core)")
     .Add("ransac_trials", &S::ransac_trials, 10, 1000000, "geometric verification trials per image pair")
     .Add("cross_pair_max_angle_deg", &S::cross_pair_max_angle_deg, 0.0, 180.0,
          "V/L frame pairs matched across phones within this angle")

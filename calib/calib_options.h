@@ -76,10 +76,14 @@ struct SfmOptions {
   // The same for board_seeded: the board poses tie the model together, so
   // fewer neighbours suffice (matching is most of COLMAP's time).
   int seeded_overlap = 3;
-  // "opencv": descriptors matched by OpenCV (calib/feature_matching.h),
-  // pairs verified by COLMAP; "colmap": COLMAP 3.8's CPU matcher (FLANN
-  // trees built again per pair: ~10x slower; docs/calib.md step 5).
+  // "opencv": descriptors matched by OpenCV (calib/feature_matching.h);
+  // "colmap": COLMAP 3.8's CPU matcher (FLANN trees built again per pair:
+  // ~10x slower; docs/calib.md step 5), which verifies the pairs itself.
   std::string matcher = "opencv";
+  // With matcher opencv, the pairs' geometric verification: "opencv" in
+  // process on all cores (calib/pair_verification.h), "colmap" by COLMAP's
+  // matches_importer (one core, ~10 ms per pair).
+  std::string verification = "opencv";
   int ransac_trials = 1000;        // COLMAP geometric verification trials per image pair
   double cross_pair_max_angle_deg = 35.0;  // V/L frame pairs matched across phones
   int cross_pairs_per_frame = 4;

@@ -220,6 +220,7 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   run.sequential_overlap = overlap;
   run.ransac_trials = so.ransac_trials;
   run.matcher = so.matcher;
+  run.verification = so.verification;
   run.threads = so.threads;
   run.min_registered = so.min_registered;
   run.max_features = so.max_features;
@@ -239,6 +240,9 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   const SfmResult sfm = RunColmapSfm(images, lenses, pairs, run);
   for (const auto& [step, seconds] : sfm.timings_s) (*timings_s)["colmap_" + step] = seconds;
   if (so.matcher == "opencv") (*timings_s)["sfm_descriptor_matching"] = sfm.descriptor_matching_s;
+  if (so.matcher == "opencv" && so.verification == "opencv") {
+    (*timings_s)["sfm_pair_verification"] = sfm.pair_verification_s;
+  }
 
   // Align the model to the board frame on camera centres.
   std::vector<Eigen::Vector3d> src, dst;
@@ -308,7 +312,8 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
                          {"scale_m_per_unit", fit.transform.scale}}},
           {"unregistered", unregistered},
           {"timings_s", sfm.timings_s},
-          {"descriptor_matching_s", sfm.descriptor_matching_s}};
+          {"descriptor_matching_s", sfm.descriptor_matching_s},
+          {"pair_verification_s", sfm.pair_verification_s}};
 }
 
 nlohmann::json CheckBoardScale(const std::vector<CalibFrame>& frames, const BundleProblem& problem,

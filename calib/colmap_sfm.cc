@@ -14,6 +14,7 @@
 #include <spdlog/spdlog.h>
 
 #include "calib/feature_matching.h"
+#include "calib/pair_verification.h"
 #include "core/error.h"
 #include "core/shell.h"
 
@@ -245,12 +246,16 @@ void MatchWithColmap(const std::vector<std::pair<std::string, std::string>>& pai
 }
 
 // The same pairs (COLMAP's sequential ones and the extra ones) matched by
-// OpenCV; COLMAP verifies them.
-void MatchWithOpenCv(const std::vector<SfmImage>& images, const std::vector<std::pair<std::string, std::string>>& pairs,
-                     const SfmRunOptions& o, const std::string& common, int threads, const std::string& database,
-                     SfmResult* result) {
+// OpenCV, then verified in process (pair_verification.h) or by COLMAP.
+void MatchWithOpenCv(const std::vector<SfmImage>& images, const std::map<std::string, Intrinsics>& lenses,
+                     const std::vector<std::pair<std::string, std::string>>& pairs, const SfmRunOptions& o,
+                     const std::string& common, int threads, const std::string& database, SfmResult* result) {
   std::vector<std::string> names;
-  for (const SfmImage& image : images) names.push_back(image.name);
+  std::map<std::string, Intrinsics> lens_of_image;
+  for (const SfmImage& image : images) {
+    names.push_back(image.name);
+    lens_of_image[image.name] = lenses.at(image.device);
+  }
   ImagePairs all = SequentialPairs(names, o.sequential_overlap);
   std::set<std::pair<std::string, std::string>> seen;
   for (const auto& [a, b] : all) seen.insert(std::minmax(a, b));
@@ -259,15 +264,27 @@ void MatchWithOpenCv(const std::vector<SfmImage>& images, const std::vector<std:
   }
   DescriptorMatchOptions match;
   match.threads = o.threads;
-  const std::string raw = (fs::path(o.work_dir) / "raw_matches.txt").string();
   spdlog::info("sfm: matching {} image pairs (OpenCV)", all.size());
-  const DescriptorMatchStats stats = MatchDescriptors(database, all, match, raw);
+  DescriptorMatchStats stats;
+  const MatchedPairs matched = MatchDescriptors(database, all, match, &stats);
   spdlog::info("sfm: {} descriptor matches in {} pairs ({:.1f} s)", stats.matches, stats.pairs, stats.seconds);
   if (stats.pairs_without_descriptors > 0) {
     spdlog::warn("sfm: {} image pairs left out: COLMAP extracted no features from one of their images (see "
                  "colmap_feature_extractor.log)", stats.pairs_without_descriptors);
   }
   result->descriptor_matching_s = stats.seconds;
+  if (o.verification == "opencv") {
+    PairVerificationOptions verify;
+    verify.max_trials = o.ransac_trials;
+    verify.threads = o.threads;
+    const PairVerificationStats v = VerifyAndStorePairs(database, matched, lens_of_image, verify);
+    spdlog::info("sfm: {} of {} pairs verified, {} of {} matches inliers ({:.1f} s)", v.verified_pairs, v.pairs,
+                 v.inliers, v.matches, v.seconds);
+    result->pair_verification_s = v.seconds;
+    return;
+  }
+  const std::string raw = (fs::path(o.work_dir) / "raw_matches.txt").string();
+  WriteRawMatches(matched, raw);
   result->timings_s["matches_importer"] = RunStep(
       o, "matches_importer",
       common + " --match_list_path " + ShellQuote(raw) + " --match_type raw --SiftMatching.use_gpu 0" +
@@ -304,7 +321,7 @@ void RunColmapSteps(const std::vector<SfmImage>& images, const std::map<std::str
             " --SiftExtraction.first_octave " + std::to_string(o.first_octave));
   }
   if (o.matcher == "opencv") {
-    MatchWithOpenCv(images, pairs, o, common, threads, database, result);
+    MatchWithOpenCv(images, lenses, pairs, o, common, threads, database, result);
   } else {
     MatchWithColmap(pairs, o, common, threads, result);
   }

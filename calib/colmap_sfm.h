@@ -2,7 +2,8 @@
 // CPU only): feature extraction per phone with its board-calibrated lens,
 // matching of sequential pairs in each phone's frame order and of
 // cross-phone pairs ("loop closure" between the two phones), by OpenCV
-// (feature_matching.h) and verified by COLMAP, or by COLMAP alone; then
+// (feature_matching.h) and verified in process (pair_verification.h) or
+// by COLMAP, or by COLMAP alone; then
 // either the incremental mapper ("incremental") or, with the board's poses
 // as known poses ("board_seeded"), point_triangulator on those poses and
 // image_registrator for the frames the board cannot place; and a text
@@ -45,6 +46,10 @@ struct SfmRunOptions {
   // verified by COLMAP; "colmap": COLMAP's own sequential_matcher and
   // matches_importer (FLANN, ~10x slower per pair on the CPU).
   std::string matcher = "opencv";
+  // With matcher "opencv": "opencv" verifies the pairs in process
+  // (calib/pair_verification.h, all cores), "colmap" by COLMAP's
+  // matches_importer (one core, ~10 ms per pair).
+  std::string verification = "opencv";
   // Known cam_from_world poses by image name (board_seeded); empty: the
   // incremental mapper builds the model from scratch.
   std::map<std::string, Rigid3> known_poses;
@@ -75,6 +80,7 @@ struct SfmResult {
   std::map<std::string, std::string> unregistered; // image -> likely reason
   std::map<std::string, double> timings_s;         // per COLMAP step
   double descriptor_matching_s = 0;                // relit's own matching (matcher "opencv"), not a COLMAP step
+  double pair_verification_s = 0;                  // relit's own verification (verification "opencv")
 };
 
 // Runs COLMAP. Lenses are given per device (OPENCV model, fixed during

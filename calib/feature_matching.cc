@@ -121,27 +121,27 @@ std::vector<std::pair<int, int>> MatchPair(const cv::Mat& a, const cv::Mat& b, c
 
 }  // namespace
 
-DescriptorMatchStats MatchDescriptors(const std::string& database, const ImagePairs& pairs,
-                                      const DescriptorMatchOptions& options, const std::string& raw_path) {
+MatchedPairs MatchDescriptors(const std::string& database, const ImagePairs& pairs,
+                              const DescriptorMatchOptions& options, DescriptorMatchStats* stats) {
   const auto start = std::chrono::steady_clock::now();
   const std::map<std::string, Descriptors> descriptors = ReadDescriptors(database);
   // An image COLMAP could not read has no descriptors: its pairs are left
   // out, and calib reports the frame as unregistered with 0 features.
-  DescriptorMatchStats stats;
-  ImagePairs usable;
+  *stats = {};
+  MatchedPairs matched;
   for (const auto& pair : pairs) {
     if (descriptors.count(pair.first) && descriptors.count(pair.second)) {
-      usable.push_back(pair);
+      matched.pairs.push_back(pair);
     } else {
-      ++stats.pairs_without_descriptors;
+      ++stats->pairs_without_descriptors;
     }
   }
-  std::vector<std::vector<std::pair<int, int>>> matches(usable.size());
+  matched.matches.resize(matched.pairs.size());
   auto run = [&] {
-    tbb::parallel_for(size_t(0), usable.size(), [&](size_t i) {
-      const cv::Mat a = UnitRows(descriptors.at(usable[i].first));
-      const cv::Mat b = UnitRows(descriptors.at(usable[i].second));
-      matches[i] = MatchPair(a, b, options);
+    tbb::parallel_for(size_t(0), matched.pairs.size(), [&](size_t i) {
+      const cv::Mat a = UnitRows(descriptors.at(matched.pairs[i].first));
+      const cv::Mat b = UnitRows(descriptors.at(matched.pairs[i].second));
+      matched.matches[i] = MatchPair(a, b, options);
     });
   };
   if (options.threads > 0) {
@@ -149,19 +149,22 @@ DescriptorMatchStats MatchDescriptors(const std::string& database, const ImagePa
   } else {
     run();
   }
+  for (const auto& m : matched.matches) stats->matches += static_cast<long>(m.size());
+  stats->pairs = static_cast<int>(matched.pairs.size());
+  stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return matched;
+}
+
+void WriteRawMatches(const MatchedPairs& matched, const std::string& raw_path) {
   std::ofstream out(raw_path);
   RELIT_REQUIRE(static_cast<bool>(out), "cannot write ", raw_path);
-  for (size_t i = 0; i < usable.size(); ++i) {
-    out << usable[i].first << " " << usable[i].second << "\n";
-    for (const auto& [p, q] : matches[i]) out << p << " " << q << "\n";
+  for (size_t i = 0; i < matched.pairs.size(); ++i) {
+    out << matched.pairs[i].first << " " << matched.pairs[i].second << "\n";
+    for (const auto& [p, q] : matched.matches[i]) out << p << " " << q << "\n";
     out << "\n";
-    stats.matches += static_cast<long>(matches[i].size());
   }
   out.close();
   RELIT_REQUIRE(static_cast<bool>(out), "cannot write ", raw_path, " (disk full?)");
-  stats.pairs = static_cast<int>(usable.size());
-  stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return stats;
 }
 
 }  // namespace relit::calib

@@ -4,8 +4,9 @@
 // features on 2 cores, 60 % of COLMAP's time on a 1,000-image capture.
 // Here one matrix product (OpenCV's gemm) gives all descriptor angles of a
 // pair, and COLMAP's criteria are applied to it: ratio test and maximum
-// angle, mutual best match. COLMAP still verifies every pair geometrically
-// (`matches_importer --match_type raw`) and writes the database.
+// angle, mutual best match. The pairs are then verified geometrically
+// (calib/pair_verification.h, or COLMAP's `matches_importer --match_type
+// raw` from the raw match file written here).
 #pragma once
 
 #include <string>
@@ -35,12 +36,21 @@ struct DescriptorMatchStats {
   double seconds = 0;
 };
 
+// Matched image pairs: matches[i] holds (keypoint index in pairs[i].first,
+// keypoint index in pairs[i].second).
+struct MatchedPairs {
+  ImagePairs pairs;
+  std::vector<std::vector<std::pair<int, int>>> matches;
+};
+
 // Matches the descriptors that COLMAP's feature_extractor stored in
-// `database` for every pair (image names) and writes them in
-// matches_importer's raw format to `raw_path`: per pair a line with the two
-// names, one "index1 index2" line per match and an empty line. Pairs with
-// an image that has no descriptors in the database are left out.
-DescriptorMatchStats MatchDescriptors(const std::string& database, const ImagePairs& pairs,
-                                      const DescriptorMatchOptions& options, const std::string& raw_path);
+// `database` for every pair (image names). Pairs with an image that has no
+// descriptors in the database are left out (counted in stats).
+MatchedPairs MatchDescriptors(const std::string& database, const ImagePairs& pairs,
+                              const DescriptorMatchOptions& options, DescriptorMatchStats* stats);
+
+// Writes matched pairs in matches_importer's raw format: per pair a line
+// with the two names, one "index1 index2" line per match and an empty line.
+void WriteRawMatches(const MatchedPairs& matched, const std::string& raw_path);
 
 }  // namespace relit::calib

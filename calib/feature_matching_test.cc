@@ -104,9 +104,12 @@ TEST_F(MatchDescriptorsTest, FindsThePermutedFeaturesAndDropsAmbiguousOnes) {
 
   const std::string database = (root_ / "database.db").string();
   WriteDatabase(database, {Quantise(first), Quantise(second)});
-  const std::string raw = (root_ / "raw.txt").string();
-  const DescriptorMatchStats stats = MatchDescriptors(database, {{"img0.png", "img1.png"}}, {}, raw);
+  DescriptorMatchStats stats;
+  const MatchedPairs matched = MatchDescriptors(database, {{"img0.png", "img1.png"}}, {}, &stats);
   EXPECT_EQ(stats.pairs, 1);
+  // Read back from the raw file COLMAP's matches_importer would take.
+  const std::string raw = (root_ / "raw.txt").string();
+  WriteRawMatches(matched, raw);
 
   std::ifstream in(raw);
   std::string header;
@@ -133,16 +136,15 @@ TEST_F(MatchDescriptorsTest, LeavesOutPairsOfImagesWithoutDescriptors) {
   std::vector<std::vector<float>> features;
   for (int i = 0; i < 10; ++i) features.push_back(RandomUnit(rng));
   WriteDatabase(database, {Quantise(features), Quantise(features)});
-  const std::string raw = (root_ / "raw.txt").string();
-  const DescriptorMatchStats stats =
-      MatchDescriptors(database, {{"img0.png", "img9.png"}, {"img0.png", "img1.png"}}, {}, raw);
+  DescriptorMatchStats stats;
+  const MatchedPairs matched =
+      MatchDescriptors(database, {{"img0.png", "img9.png"}, {"img0.png", "img1.png"}}, {}, &stats);
   EXPECT_EQ(stats.pairs, 1);
   EXPECT_EQ(stats.pairs_without_descriptors, 1);
   EXPECT_EQ(stats.matches, 10);
-  std::ifstream in(raw);
-  std::string header;
-  std::getline(in, header);
-  EXPECT_EQ(header, "img0.png img1.png");
+  ASSERT_EQ(matched.pairs.size(), 1u);
+  EXPECT_EQ(matched.pairs[0], std::make_pair(std::string("img0.png"), std::string("img1.png")));
+  EXPECT_EQ(matched.matches[0].size(), 10u);
 }
 
 }  // namespace
