@@ -70,9 +70,13 @@ PairGeometry Verify(const std::vector<Eigen::Vector2d>& a, const std::vector<Eig
     pa.emplace_back(a[i].x(), a[i].y());
     pb.emplace_back(b[j].x(), b[j].y());
   }
-  cv::Mat mask;
-  const cv::Mat e = cv::findEssentialMat(pa, pb, cv::Mat::eye(3, 3, CV_64F), cv::RANSAC, o.confidence, max_error,
-                                         o.max_trials, mask);
+  cv::Mat mask, e;
+  try {
+    e = cv::findEssentialMat(pa, pb, cv::Mat::eye(3, 3, CV_64F), cv::RANSAC, o.confidence, max_error, o.max_trials,
+                             mask);
+  } catch (const cv::Exception&) {
+    return out;  // a degenerate pair (e.g. all matches at one position): unverified, as COLMAP leaves it
+  }
   // Degenerate samples can yield several stacked solutions or none.
   if (e.rows != 3 || e.cols != 3 || mask.empty()) return out;
   for (int k = 0; k < mask.rows; ++k) {
