@@ -12,6 +12,7 @@
 #include <spdlog/spdlog.h>
 
 #include "core/error.h"
+#include "core/progress.h"
 
 namespace relit::calib {
 
@@ -234,15 +235,32 @@ void ConfigureSolver(const BundleOptions& o, int frames, bool has_points, ceres:
   options->logging_type = ceres::SILENT;
 }
 
-// Per-iteration progress at trace level: which iterations buy what.
-class TraceIterations : public ceres::IterationCallback {
+// Per-iteration progress: at trace level always (which iterations buy
+// what), at info level once iterations take seconds (a 3,000-frame joint
+// solve runs for many minutes), with an upper bound on the time left.
+class LogIterations : public ceres::IterationCallback {
  public:
+  explicit LogIterations(int max_iterations) : max_iterations_(max_iterations) {}
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
     spdlog::trace("bundle: iteration {} cost {:.6e} change {:.3e} step {:.3e} radius {:.2e} linear {} ({:.2f} s)",
                   s.iteration, s.cost, s.cost_change, s.step_norm, s.trust_region_radius,
                   s.linear_solver_iterations, s.iteration_time_in_seconds);
+    if (s.iteration > 0 && s.iteration_time_in_seconds >= 2.0) {
+      const int left = std::max(0, max_iterations_ - s.iteration);
+      const std::string step =
+          s.step_is_successful ? fmt::format("cost {:.6e}, {:+.4f} %", s.cost,
+                                             -100.0 * s.cost_change / std::max(1e-300, s.cost + s.cost_change))
+                               : std::string("step rejected, more damping");
+      spdlog::info("bundle: iteration {} of at most {} ({:.1f} s, {}); time left at most {} (the solve usually "
+                   "stops far earlier, when the cost stalls)",
+                   s.iteration, max_iterations_, s.iteration_time_in_seconds, step,
+                   FormatDuration(left * s.iteration_time_in_seconds));
+    }
     return ceres::SOLVER_CONTINUE;
   }
+
+ private:
+  int max_iterations_;
 };
 
 // `rs` (may be null): model the rolling shutter, refining its readout times.
@@ -358,8 +376,8 @@ ceres::Solver::Summary Solve(BundleProblem* p, const Inliers& inliers, const Bun
       delete ordering;
     }
   }
-  TraceIterations trace;
-  if (spdlog::should_log(spdlog::level::trace)) options.callbacks.push_back(&trace);
+  LogIterations log_iterations(options.max_num_iterations);
+  if (spdlog::should_log(spdlog::level::info)) options.callbacks.push_back(&log_iterations);
   ceres::Solver::Summary summary;
   if (problem.NumResidualBlocks() > 0) ceres::Solve(options, &problem, &summary);
   FromBlocks(b, p);
