@@ -185,14 +185,20 @@ SfmModel ReadColmapTextModel(const std::string& dir) {
   return model;
 }
 
-// Runs one SQL query on a COLMAP database (read-only), calling `row` per row.
-void QueryColmapDatabase(const std::string& path, const char* sql, const std::function<void(sqlite3_stmt*)>& row) {
+sqlite3* OpenColmapDatabase(const std::string& path, bool writable) {
   sqlite3* db = nullptr;
-  if (sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
+  if (sqlite3_open_v2(path.c_str(), &db, writable ? SQLITE_OPEN_READWRITE : SQLITE_OPEN_READONLY, nullptr) !=
+      SQLITE_OK) {
     const std::string message = db ? sqlite3_errmsg(db) : "out of memory";
     sqlite3_close(db);
-    Fail("cannot open the COLMAP database ", path, ": ", message);
+    Fail("cannot open the COLMAP database ", path, writable ? " for writing: " : ": ", message);
   }
+  return db;
+}
+
+// Runs one SQL query on a COLMAP database (read-only), calling `row` per row.
+void QueryColmapDatabase(const std::string& path, const char* sql, const std::function<void(sqlite3_stmt*)>& row) {
+  sqlite3* db = OpenColmapDatabase(path, false);
   sqlite3_stmt* statement = nullptr;
   if (sqlite3_prepare_v2(db, sql, -1, &statement, nullptr) != SQLITE_OK) {
     const std::string message = sqlite3_errmsg(db);

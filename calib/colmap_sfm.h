@@ -23,6 +23,7 @@
 
 #include "core/camera.h"
 
+struct sqlite3;
 struct sqlite3_stmt;
 
 namespace relit::calib {
@@ -102,6 +103,10 @@ SfmModel ReadColmapTextModel(const std::string& dir);
 // COLMAP database.
 void ReadColmapDatabase(const std::string& path, std::map<std::string, int>* keypoints,
                         int* verified_pairs);
+
+// Opens a COLMAP database (sqlite3_close it); throws relit::Error naming it
+// when it cannot be opened.
+sqlite3* OpenColmapDatabase(const std::string& path, bool writable);
 
 // Runs one SQL query on a COLMAP database (read-only), calling `row` per row.
 void QueryColmapDatabase(const std::string& path, const char* sql, const std::function<void(sqlite3_stmt*)>& row);

@@ -44,12 +44,12 @@ std::map<std::string, std::vector<Eigen::Vector2d>> ReadKeypoints(const std::str
   return keypoints;
 }
 
+// Undistorted normalised coordinates (x / z, y / z of each pixel's ray).
 std::vector<Eigen::Vector2d> Normalized(const std::vector<Eigen::Vector2d>& pixels, const Intrinsics& lens) {
+  const Camera camera(lens, Rigid3());
   std::vector<Eigen::Vector2d> out;
   out.reserve(pixels.size());
-  for (const Eigen::Vector2d& p : pixels) {
-    out.push_back(Undistort(lens.distortion, {(p.x() - lens.cx) / lens.fx, (p.y() - lens.cy) / lens.fy}));
-  }
+  for (const Eigen::Vector2d& p : pixels) out.push_back(camera.PixelToCameraRay(p).hnormalized());
   return out;
 }
 
@@ -133,12 +133,7 @@ void Exec(sqlite3* db, const char* sql) {
 void StorePairs(const std::string& database, const MatchedPairs& matched, const std::vector<PairGeometry>& geometry,
                 const std::map<std::string, Intrinsics>& lens_of_image) {
   const std::map<std::string, ColmapIds> ids = ReadColmapImageIds(database);
-  sqlite3* db = nullptr;
-  if (sqlite3_open_v2(database.c_str(), &db, SQLITE_OPEN_READWRITE, nullptr) != SQLITE_OK) {
-    const std::string message = db ? sqlite3_errmsg(db) : "out of memory";
-    sqlite3_close(db);
-    Fail("cannot open the COLMAP database ", database, " for writing: ", message);
-  }
+  sqlite3* db = OpenColmapDatabase(database, true);
   try {
     Exec(db, "BEGIN TRANSACTION");
     Statement matches(db, "INSERT OR REPLACE INTO matches (pair_id, rows, cols, data) VALUES (?, ?, 2, ?)");
