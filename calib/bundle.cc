@@ -214,16 +214,18 @@ ceres::DenseLinearAlgebraLibraryType DenseLibrary(const std::string& choice) {
 // lenses. Without SfM points (board corners only) it is block diagonal apart
 // from the lens rows: sparse Schur (990 frames: 0.6 s against dense 37.6 s).
 // With points it is nearly dense (long tracks, cross pairs, the lenses):
-// dense Schur up to dense_schur_max_frames, sparse beyond. iterative_schur
-// serves the joint solve only (on corners alone CG took 88 iterations where
-// sparse Schur took 12).
+// dense Schur up to dense_schur_max_frames, conjugate gradients beyond
+// (at 2,990 frames sparse Schur's elimination and CHOLMOD ran 37 minutes
+// without finishing; conjugate gradients took 14). iterative_schur serves the joint solve
+// only (on corners alone CG took 88 iterations where sparse Schur took 12).
 void ConfigureSolver(const BundleOptions& o, int frames, bool has_points, ceres::Solver::Options* options) {
   const std::string& s = o.linear_solver;
   if (s == "dense_schur" || (s == "auto" && has_points && frames <= o.dense_schur_max_frames)) {
     options->linear_solver_type = ceres::DENSE_SCHUR;
-  } else if (s == "iterative_schur" && has_points) {
+  } else if (has_points && (s == "iterative_schur" || s == "auto")) {
     options->linear_solver_type = ceres::ITERATIVE_SCHUR;
     options->preconditioner_type = ceres::SCHUR_JACOBI;
+    options->eta = o.iterative_eta;
   } else {
     options->linear_solver_type = ceres::SPARSE_SCHUR;
   }
@@ -347,10 +349,14 @@ ceres::Solver::Summary Solve(BundleProblem* p, const Inliers& inliers, const Bun
   }
   ceres::Solver::Options options;
   bool has_points = false;
-  for (auto& point : points) has_points = has_points || problem.HasParameterBlock(point.data());
+  for (auto& point : points) {
+    if (!problem.HasParameterBlock(point.data())) continue;
+    if (p->fixed_points) problem.SetParameterBlockConstant(point.data());
+    has_points = !p->fixed_points;
+  }
   ConfigureSolver(o, static_cast<int>(std::count(used_frame.begin(), used_frame.end(), true)), has_points,
                   &options);
-  if (options.linear_solver_type != ceres::DENSE_SCHUR && !points.empty()) {
+  if (options.linear_solver_type != ceres::DENSE_SCHUR && has_points) {
     // Points first: Schur elimination leaves the reduced camera system, whose
     // sparsity follows the frames that share points.
     auto* ordering = new ceres::ParameterBlockOrdering;
@@ -454,6 +460,23 @@ BundleStats Evaluate(const BundleProblem& p, double outlier_px, Inliers* inliers
 }
 
 }  // namespace
+
+std::vector<BundlePoint> KeepLongestTracks(std::vector<BundlePoint> points, size_t frames, int per_frame) {
+  if (per_frame <= 0) return points;
+  std::stable_sort(points.begin(), points.end(), [](const BundlePoint& a, const BundlePoint& b) {
+    return a.observations.size() > b.observations.size();
+  });
+  std::vector<int> observations(frames, 0);
+  std::vector<BundlePoint> kept;
+  for (BundlePoint& point : points) {
+    bool needed = false;
+    for (const PointObservation& obs : point.observations) needed = needed || observations[obs.frame] < per_frame;
+    if (!needed) continue;
+    for (const PointObservation& obs : point.observations) ++observations[obs.frame];
+    kept.push_back(std::move(point));
+  }
+  return kept;
+}
 
 BundleStats RefineBundle(BundleProblem* problem, const BundleOptions& options) {
   RELIT_CHECK(problem->corners_world.size() > 0);

@@ -49,6 +49,7 @@ struct BundleProblem {
   bool refine_tangential = true;                // false: p1, p2 held
   std::vector<BundleFrame> frames;
   std::vector<BundlePoint> points;
+  bool fixed_points = false;                    // points held at their positions (frames placed on them)
 };
 
 struct BundleOptions {
@@ -63,6 +64,7 @@ struct BundleOptions {
   int threads = 0;
   std::string linear_solver = "auto";  // auto | dense_schur | sparse_schur | iterative_schur
   int dense_schur_max_frames = 1000;   // auto: dense Schur with points up to this many posed frames (calib's refine.*)
+  double iterative_eta = 0.01;         // iterative Schur's forcing term (Ceres' eta; calib's refine.*)
   double function_tolerance = 1e-6;
   std::string dense_library = "auto";  // auto | eigen | lapack: dense Schur's Cholesky (calib's refine.*)
   // First solve (0: function_tolerance): it only has to bring the outliers
@@ -98,6 +100,11 @@ struct BundleStats {
 // frame whose observations all turn out to be outliers loses its pose
 // (posed = false afterwards).
 BundleStats RefineBundle(BundleProblem* problem, const BundleOptions& options);
+
+// The longest tracks first, each kept while one of its frames has fewer than
+// `per_frame` point observations (0: every point). The joint solve's time
+// follows the point observations; what they buy is the frames they tie.
+std::vector<BundlePoint> KeepLongestTracks(std::vector<BundlePoint> points, size_t frames, int per_frame);
 
 // Reprojection residual statistics without refining (for reports).
 BundleStats EvaluateBundle(const BundleProblem& problem, double outlier_px);

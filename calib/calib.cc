@@ -9,6 +9,7 @@
 #include <spdlog/spdlog.h>
 #include <tbb/parallel_for.h>
 
+#include "calib/bundle_subset.h"
 #include "calib/calib_steps.h"
 #include "calib/colmap_sfm.h"
 #include "calib/lights.h"
@@ -42,6 +43,7 @@ BundleOptions ToBundleOptions(const CalibOptions& o, bool with_points) {
   b.threads = o.sfm.threads;
   b.linear_solver = o.refine.linear_solver;
   b.dense_schur_max_frames = o.refine.dense_schur_max_frames;
+  b.iterative_eta = o.refine.iterative_eta;
   b.dense_library = o.refine.dense_library;
   b.function_tolerance = o.refine.function_tolerance;
   b.first_function_tolerance = o.refine.first_function_tolerance;
@@ -161,6 +163,7 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
   report["scale_check"] = CheckBoardScale(frames, problem, options, &summary.marker_ratio_measured);
 
   // 3. Structure from motion, aligned to the board, then the joint refinement.
+  SubsetStats subset;
   if (options.sfm.enabled) {
     {
       auto timer = record.Time("sfm");  // COLMAP and the alignment, not the joint refinement
@@ -169,11 +172,18 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
     }
     for (const auto& [step, seconds] : colmap_timings) record.AddTiming(step, seconds);
     auto refine_timer = record.Time("refine_joint");
-    stats = RefineBundle(&problem, ToBundleOptions(options, true));
+    stats = RefineBundleOnKeyFrames(&problem, ToBundleOptions(options, true), options.refine.max_joint_frames,
+                                    &subset);
   } else {
     report["sfm"] = {{"ran", false}};
   }
   report["refine"] = StatsJson(stats);
+  if (subset.key_frames > 0) {
+    report["refine"]["key_frames"] = subset.key_frames;
+    report["refine"]["placed_frames"] = subset.placed_frames;
+    report["refine"]["joint_s"] = subset.joint_s;
+    report["refine"]["placement_s"] = subset.placement_s;
+  }
   if (geometry_pass) {
     report["geometry"] = GeometryPassReport(frames, problem, posed_by_board, stats, report["sfm"],
                                             options.detect.min_corners);

@@ -57,6 +57,9 @@ RELIT_OPTION_FIELDS(SfmOptions,
     .Add("min_registered", &S::min_registered, 2, 100000, "fewer registered images: SfM failed")
     .Add("align_inlier_m", &S::align_inlier_m, 1e-5, 10.0, "camera-centre distance for the similarity RANSAC")
     .Add("point_weight", &S::point_weight, 0.0, 100.0, "SfM point residuals relative to board corners")
+    .Add("points_per_frame", &S::points_per_frame, 0, 1000000,
+         "the joint solve keeps the longest tracks until each frame has this many point observations "
+         "(0: every point)")
     .Add("threads", &S::threads, 0, 1024, "0 = all cores")
     .Add("reuse_dir", &S::reuse_dir,
          "a copy of a previous run's calib/sfm folder: its COLMAP model is read, no COLMAP step runs "
@@ -74,9 +77,14 @@ RELIT_OPTION_FIELDS(RefineOptions,
     .Add("max_iterations", &S::max_iterations, 1, 100000, "Ceres iterations")
     .Add("linear_solver", &S::linear_solver, {"auto", "dense_schur", "sparse_schur", "iterative_schur"},
          "Ceres linear solver (auto: dense Schur with SfM points up to dense_schur_max_frames frames, "
-         "else sparse Schur; iterative_schur applies with SfM points, sparse Schur on board corners alone)")
+         "iterative Schur above, sparse Schur on board corners alone; iterative_schur applies with SfM points)")
     .Add("dense_schur_max_frames", &S::dense_schur_max_frames, 0, 1000000,
-         "auto's switch to sparse Schur (400 before 2026-11-27)")
+         "auto's switch from dense to iterative Schur (sparse Schur above it until 2026-11-27)")
+    .Add("max_joint_frames", &S::max_joint_frames, 0, 100000000,
+         "the joint solve's frames at most, evenly spaced (0: all); the others are then placed one by one on "
+         "its lenses and points")
+    .Add("iterative_eta", &S::iterative_eta, 1e-6, 0.9,
+         "iterative Schur's forcing term (Ceres' eta): conjugate gradients stop at this relative residual")
     .Add("dense_library", &S::dense_library, {"auto", "eigen", "lapack"},
          "dense Schur's Cholesky (auto: LAPACK when it is OpenBLAS, 2-5x faster than Ceres' Eigen; else Eigen)")
     .Add("function_tolerance", &S::function_tolerance, 1e-16, 0.1,

@@ -90,6 +90,10 @@ struct SfmOptions {
   int min_registered = 6;          // fewer registered images: SfM failed
   double align_inlier_m = 0.02;    // camera-centre distance for the similarity RANSAC
   double point_weight = 0.5;       // SfM point residuals relative to board corners
+  // The joint solve keeps the longest tracks until each frame has this many
+  // point observations (0: every point): its time follows the observations
+  // (1.3 million at 3,000 images).
+  int points_per_frame = 200;
   int threads = 0;                 // 0 = all cores
   // A previous run's calib/sfm folder (copied out of W/calib, which each run
   // replaces): its COLMAP model is read and no COLMAP step runs. For
@@ -110,7 +114,7 @@ struct RefineOptions {
   double final_huber_px = 0;
   int max_iterations = 100;
   // Ceres linear solver: "auto" (dense Schur up to dense_schur_max_frames
-  // frames, sparse Schur above), "dense_schur", "sparse_schur" or
+  // frames, iterative Schur above), "dense_schur", "sparse_schur" or
   // "iterative_schur" (conjugate gradients, Schur-Jacobi preconditioner).
   std::string linear_solver = "auto";
   // With SfM points, dense Schur took 79 s against sparse 143 s at 312
@@ -119,6 +123,15 @@ struct RefineOptions {
   // (lenses, long tracks, cross pairs). Board corners alone always take
   // sparse Schur under auto (docs/notes/calib-at-scale-2026-11-27.md).
   int dense_schur_max_frames = 1000;
+  // The joint solve takes at most this many frames, evenly spaced (0: all);
+  // the others are placed afterwards on its lenses and points, one frame
+  // at a time (calib/bundle_subset.h).
+  int max_joint_frames = 1000;
+  // Iterative Schur's forcing term (Ceres' eta: conjugate gradients stop at
+  // this relative residual). At 990 frames 0.1 (Ceres' default) stopped
+  // 0.2 mm short of dense Schur along the flat focal-distance direction,
+  // 1e-2 reached it in 2.3x the time (docs/notes/calib-at-scale-2026-11-27e.md).
+  double iterative_eta = 0.01;
   // Dense Schur's Cholesky: "auto" (LAPACK when it is OpenBLAS, else
   // Ceres' Eigen), "eigen" or "lapack" (calib/bundle.cc DenseLibrary).
   std::string dense_library = "auto";

@@ -281,16 +281,22 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
       ++sfm_only;
     }
   }
-  int points = 0;
+  std::vector<BundlePoint> tracks;
   for (size_t i = 0; i < sfm.model.points.size(); ++i) {
     BundlePoint point;
     point.position_m = fit.transform * sfm.model.points[i];
     for (const SfmTrackObservation& obs : sfm.model.tracks[i]) {
       point.observations.push_back({frame_of.at(obs.image), obs.pixel_px});
     }
-    if (point.observations.size() < 2) continue;
-    problem->points.push_back(point);
-    ++points;
+    if (point.observations.size() >= 2) tracks.push_back(std::move(point));
+  }
+  const size_t points = tracks.size();
+  problem->points = KeepLongestTracks(std::move(tracks), problem->frames.size(), so.points_per_frame);
+  size_t kept_observations = 0;
+  for (const BundlePoint& point : problem->points) kept_observations += point.observations.size();
+  if (so.points_per_frame > 0) {
+    spdlog::info("sfm: the joint solve keeps {} of {} points ({} observations; sfm.points_per_frame {})",
+                 problem->points.size(), points, kept_observations, so.points_per_frame);
   }
   nlohmann::json unregistered = nlohmann::json::object();
   for (const auto& [name, reason] : sfm.unregistered) unregistered[name] = reason;
@@ -305,6 +311,8 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
           {"verified_pairs", sfm.verified_pairs},
           {"cross_phone_pairs", pairs.size()},
           {"points", points},
+          {"points_in_joint_solve", problem->points.size()},
+          {"point_observations_in_joint_solve", kept_observations},
           {"frames_posed_by_sfm_only", sfm_only},
           {"alignment", {{"frames_with_both", src.size()},
                          {"inliers", fit.inlier_count},

@@ -17,6 +17,7 @@
 #include "calib/board_pose.h"
 #include "calib/board_test_util.h"
 #include "calib/bundle.h"
+#include "calib/bundle_test_util.h"
 #include "calib/calib_options.h"
 #include "calib/colmap_sfm.h"
 #include "calib/lights.h"
@@ -281,49 +282,6 @@ TEST(BundleTest, RecoversLensAndPosesFromBoardCorners) {
   }
 }
 
-// 16 frames around the board (varied distance and elevation: the lens is
-// observable), their corners and 40 points above the board, with Gaussian
-// pixel noise; poses and points start a few millimetres off.
-BundleProblem BoardAndPoints(double noise_px, std::vector<Rigid3>* poses) {
-  BoardSpec spec;
-  const Intrinsics truth = Intrinsics::FromFov(640, 480, 1.1);
-  BundleProblem base;
-  base.corners_world = CharucoCornersWorld(spec);
-  base.devices["view"] = truth;
-  std::mt19937 rng(7);
-  std::normal_distribution<double> noise(0, noise_px);
-  std::uniform_real_distribution<double> box(-0.06, 0.06);
-  for (int i = 0; i < 16; ++i) {
-    const double a = i * 0.3;
-    const double r = 0.3 + 0.01 * i;
-    poses->push_back(LookAt(Eigen::Vector3d(r * std::cos(a), r * std::sin(a), 0.08 + 0.025 * i),
-                            Eigen::Vector3d(0.01 * std::sin(3 * a), 0, 0), Eigen::Vector3d::UnitZ()));
-    BundleFrame f;
-    f.device = "view";
-    f.posed = true;
-    const Camera camera(truth, poses->back());
-    for (size_t c = 0; c < base.corners_world.size(); ++c) {
-      Eigen::Vector2d px;
-      if (!camera.Project(base.corners_world[c], &px)) continue;
-      f.corner_ids.push_back(static_cast<int>(c));
-      f.corners_px.push_back(px + Eigen::Vector2d(noise(rng), noise(rng)));
-    }
-    f.cam_from_world = Rigid3(poses->back().rotation, poses->back().translation + Eigen::Vector3d(0.003, -0.002, 0.004));
-    base.frames.push_back(f);
-  }
-  for (int k = 0; k < 40; ++k) {
-    BundlePoint point;
-    const Eigen::Vector3d x(box(rng), box(rng), 0.02 + box(rng) + 0.06);
-    for (int i = 0; i < 16; ++i) {
-      Eigen::Vector2d px;
-      if (Camera(truth, (*poses)[i]).Project(x, &px)) point.observations.push_back({i, px + Eigen::Vector2d(noise(rng), noise(rng))});
-    }
-    point.position_m = x + Eigen::Vector3d(0.002, 0.001, -0.002);
-    base.points.push_back(point);
-  }
-  return base;
-}
-
 // Board corners plus SfM points: the three linear solvers (points eliminated
 // first for the sparse and iterative ones) reach the same poses and lens.
 TEST(BundleTest, LinearSolversAgreeWithPoints) {
@@ -358,7 +316,7 @@ TEST(BundleTest, LinearSolversAgreeWithPoints) {
 
 // auto: sparse Schur on board corners alone (the reduced system is block
 // diagonal apart from the lens rows; 990 frames: 0.6 s against dense 37.6 s),
-// dense Schur with SfM points up to dense_schur_max_frames, sparse beyond.
+// dense Schur with SfM points up to dense_schur_max_frames, iterative beyond.
 TEST(BundleTest, AutoSolverFollowsPointsAndFrames) {
   std::vector<Rigid3> poses;
   const BundleProblem base = BoardAndPoints(0.1, &poses);
@@ -376,7 +334,10 @@ TEST(BundleTest, AutoSolverFollowsPointsAndFrames) {
   EXPECT_EQ(RefineBundle(&corners_iterative, iterative).linear_solver, "SPARSE_SCHUR");
   BundleProblem many_frames = base;
   o.dense_schur_max_frames = 10;  // the problem has 16
-  EXPECT_EQ(RefineBundle(&many_frames, o).linear_solver, "SPARSE_SCHUR");
+  EXPECT_EQ(RefineBundle(&many_frames, o).linear_solver, "ITERATIVE_SCHUR");
+  BundleProblem many_frames_corners = base;
+  many_frames_corners.points.clear();
+  EXPECT_EQ(RefineBundle(&many_frames_corners, o).linear_solver, "SPARSE_SCHUR");
   o.linear_solver = "dense_schur";  // the choice before: dense on board corners alone too
   corners_only = base;
   corners_only.points.clear();
