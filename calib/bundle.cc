@@ -461,7 +461,8 @@ BundleStats Evaluate(const BundleProblem& p, double outlier_px, Inliers* inliers
 
 }  // namespace
 
-std::vector<BundlePoint> KeepLongestTracks(std::vector<BundlePoint> points, size_t frames, int per_frame) {
+std::vector<BundlePoint> KeepLongestTracks(std::vector<BundlePoint> points, size_t frames, int per_frame,
+                                           std::vector<BundlePoint>* dropped) {
   if (per_frame <= 0) return points;
   std::stable_sort(points.begin(), points.end(), [](const BundlePoint& a, const BundlePoint& b) {
     return a.observations.size() > b.observations.size();
@@ -471,7 +472,10 @@ std::vector<BundlePoint> KeepLongestTracks(std::vector<BundlePoint> points, size
   for (BundlePoint& point : points) {
     bool needed = false;
     for (const PointObservation& obs : point.observations) needed = needed || observations[obs.frame] < per_frame;
-    if (!needed) continue;
+    if (!needed) {
+      if (dropped) dropped->push_back(std::move(point));
+      continue;
+    }
     for (const PointObservation& obs : point.observations) ++observations[obs.frame];
     kept.push_back(std::move(point));
   }

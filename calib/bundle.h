@@ -50,6 +50,9 @@ struct BundleProblem {
   std::vector<BundleFrame> frames;
   std::vector<BundlePoint> points;
   bool fixed_points = false;                    // points held at their positions (frames placed on them)
+  // SfM points left out of the solve (sfm.points_per_frame), at their
+  // aligned COLMAP positions: exported with the model, never refined.
+  std::vector<Eigen::Vector3d> unrefined_points_m;
 };
 
 struct BundleOptions {
@@ -102,9 +105,11 @@ struct BundleStats {
 BundleStats RefineBundle(BundleProblem* problem, const BundleOptions& options);
 
 // The longest tracks first, each kept while one of its frames has fewer than
-// `per_frame` point observations (0: every point). The joint solve's time
-// follows the point observations; what they buy is the frames they tie.
-std::vector<BundlePoint> KeepLongestTracks(std::vector<BundlePoint> points, size_t frames, int per_frame);
+// `per_frame` point observations (0: every point); the others go to
+// `dropped` when given. The joint solve's time follows the point
+// observations; what they buy is the frames they tie.
+std::vector<BundlePoint> KeepLongestTracks(std::vector<BundlePoint> points, size_t frames, int per_frame,
+                                           std::vector<BundlePoint>* dropped = nullptr);
 
 // Reprojection residual statistics without refining (for reports).
 BundleStats EvaluateBundle(const BundleProblem& problem, double outlier_px);

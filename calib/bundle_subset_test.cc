@@ -37,6 +37,11 @@ TEST(KeyFramesTest, LongestTracksUntilEachFrameHasItsBudget) {
   ASSERT_EQ(kept.size(), 2u);
   EXPECT_EQ(kept[0].observations.size(), 3u);
   EXPECT_EQ(kept[1].observations[1].frame, 3);
+  std::vector<BundlePoint> dropped;
+  EXPECT_EQ(KeepLongestTracks(points, 4, 1, &dropped).size(), 2u);
+  ASSERT_EQ(dropped.size(), 2u);  // the two that add nothing new
+  EXPECT_EQ(dropped[0].observations[0].frame, 0);
+  EXPECT_EQ(dropped[1].observations[0].frame, 1);
   EXPECT_EQ(KeepLongestTracks(points, 4, 0).size(), 4u);
   EXPECT_EQ(KeepLongestTracks(points, 4, 2).size(), 4u);
 }

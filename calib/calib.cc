@@ -299,6 +299,8 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
   }
   std::vector<Eigen::Vector3d> points;
   for (const BundlePoint& p : problem.points) points.push_back(p.position_m);
+  // Every SfM point, refined or not: reconstruct's sparse proxy reads them.
+  points.insert(points.end(), problem.unrefined_points_m.begin(), problem.unrefined_points_m.end());
   WriteColmapTextModel((root / "model").string(), cameras.devices, model_images, model_poses, points);
   WriteCamerasFile((root / "cameras.json").string(), cameras);
   WriteLightsFile((root / "lights.json").string(), lights);

@@ -291,7 +291,9 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
     if (point.observations.size() >= 2) tracks.push_back(std::move(point));
   }
   const size_t points = tracks.size();
-  problem->points = KeepLongestTracks(std::move(tracks), problem->frames.size(), so.points_per_frame);
+  std::vector<BundlePoint> dropped;
+  problem->points = KeepLongestTracks(std::move(tracks), problem->frames.size(), so.points_per_frame, &dropped);
+  for (const BundlePoint& point : dropped) problem->unrefined_points_m.push_back(point.position_m);
   size_t kept_observations = 0;
   for (const BundlePoint& point : problem->points) kept_observations += point.observations.size();
   if (so.points_per_frame > 0) {

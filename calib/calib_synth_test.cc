@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include "calib/calib.h"
+#include "calib/colmap_sfm.h"
 #include "calib/synth_capture_test_util.h"
 #include "calib/truth_accuracy.h"
 #include "capture/capture.h"
@@ -139,6 +140,9 @@ class CalibSynthTest : public ::testing::Test {
     EXPECT_EQ(report["sfm"]["mode"], mode);
     EXPECT_GE(s.sfm_registered, o.sfm.min_registered);
     EXPECT_GT(report["sfm"]["points"].get<int>(), 50);
+    // The exported model holds every point, in the joint solve or not.
+    EXPECT_LE(report["sfm"]["points_in_joint_solve"].get<size_t>(), report["sfm"]["points"].get<size_t>());
+    EXPECT_EQ(ReadColmapTextModel(ws + "/calib/model").points.size(), report["sfm"]["points"].get<size_t>());
     EXPECT_LT(s.point_rms_px, 1.5);
     return report;
   }
