@@ -13,6 +13,7 @@
 
 #include "core/error.h"
 #include "core/progress.h"
+#include "core/run_record.h"
 
 namespace relit::calib {
 
@@ -512,7 +513,7 @@ BundleStats RefineBundle(BundleProblem* problem, const BundleOptions& options) {
   stats.dense_library = second.linear_solver_type_used == ceres::DENSE_SCHUR
                             ? ceres::DenseLinearAlgebraLibraryTypeToString(second.dense_linear_algebra_library_type)
                             : "";
-  stats.solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  stats.solve_s = SecondsSince(start);
   spdlog::info("bundle: {} frames, {} points, {}{} ({} + {} iterations, {:.1f} s)", problem->frames.size(),
                problem->points.size(), stats.linear_solver, stats.dense_library.empty() ? "" : " " + stats.dense_library,
                first.iterations.size(), second.iterations.size(), stats.solve_s);

@@ -1,8 +1,11 @@
 #include "calib/bundle_subset.h"
 
+#include <algorithm>
 #include <chrono>
 
 #include <spdlog/spdlog.h>
+
+#include "core/run_record.h"
 
 namespace relit::calib {
 
@@ -26,32 +29,26 @@ std::vector<bool> ChooseKeyFrames(const BundleProblem& problem, int max_frames) 
 
 namespace {
 
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 // The frames not in `key` placed one by one (one Ceres problem: its
 // frames share no parameter) with the lenses and the points of the key
 // solve held. Points seen by fewer than two key frames were not refined:
 // they are left out.
 BundleStats PlaceOtherFrames(BundleProblem* problem, const BundleOptions& options, const std::vector<bool>& key) {
-  BundleProblem place;
-  place.corners_world = problem->corners_world;
-  place.devices = problem->devices;
-  for (const auto& [device, lens] : problem->devices) place.fixed_lens[device] = true;
-  place.refine_k3 = problem->refine_k3;
-  place.square_pixels = problem->square_pixels;
-  place.refine_tangential = problem->refine_tangential;
+  BundleProblem place = *problem;
+  for (const auto& [device, lens] : place.devices) place.fixed_lens[device] = true;
   place.fixed_points = true;
-  place.frames = problem->frames;
   for (size_t f = 0; f < key.size(); ++f) {
     if (key[f]) place.frames[f].posed = false;
   }
-  for (const BundlePoint& point : problem->points) {
-    int key_observations = 0;
-    for (const PointObservation& obs : point.observations) key_observations += key[obs.frame];
-    if (key_observations >= 2) place.points.push_back(point);
-  }
+  place.points.erase(std::remove_if(place.points.begin(), place.points.end(),
+                                    [&key](const BundlePoint& point) {
+                                      int key_observations = 0;
+                                      for (const PointObservation& obs : point.observations) {
+                                        key_observations += key[obs.frame];
+                                      }
+                                      return key_observations < 2;
+                                    }),
+                     place.points.end());
   BundleOptions o = options;
   o.rolling_shutter = false;  // RefineBundleOnKeyFrames takes every frame when it is on
   const BundleStats stats = RefineBundle(&place, o);

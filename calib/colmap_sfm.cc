@@ -16,6 +16,7 @@
 #include "calib/feature_matching.h"
 #include "calib/pair_verification.h"
 #include "core/error.h"
+#include "core/run_record.h"
 #include "core/shell.h"
 
 namespace relit::calib {
@@ -33,7 +34,7 @@ double RunStep(const SfmRunOptions& o, const std::string& step, const std::strin
   spdlog::debug("sfm: {}", command);
   const auto start = std::chrono::steady_clock::now();
   const int status = std::system(command.c_str());
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds = SecondsSince(start);
   if (status != 0) {
     std::string tail;
     std::ifstream in(log);

@@ -15,6 +15,7 @@
 
 #include "calib/colmap_sfm.h"
 #include "core/error.h"
+#include "core/run_record.h"
 
 namespace relit::calib {
 
@@ -151,7 +152,7 @@ MatchedPairs MatchDescriptors(const std::string& database, const ImagePairs& pai
   }
   for (const auto& m : matched.matches) stats->matches += static_cast<long>(m.size());
   stats->pairs = static_cast<int>(matched.pairs.size());
-  stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  stats->seconds = SecondsSince(start);
   return matched;
 }
 

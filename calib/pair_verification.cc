@@ -12,6 +12,7 @@
 
 #include "calib/colmap_sfm.h"
 #include "core/error.h"
+#include "core/run_record.h"
 
 namespace relit::calib {
 
@@ -238,7 +239,7 @@ PairVerificationStats VerifyAndStorePairs(const std::string& database, const Mat
     if (!geometry[p].inliers.empty()) ++stats.verified_pairs;
   }
   StorePairs(database, matched, geometry, lens_of_image);
-  stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  stats.seconds = SecondsSince(start);
   return stats;
 }
 
