@@ -34,8 +34,11 @@ RELIT_OPTION_FIELDS(IntrinsicsOptions,
 
 RELIT_OPTION_FIELDS(SfmOptions,
     .Add("enabled", &S::enabled, "false: board poses only (no COLMAP)")
-    .Add("mode", &S::mode, {"incremental", "board_seeded"},
-         "COLMAP's incremental mapper, or frames seeded with their board poses (faster, less accurate)")
+    .Add("mode", &S::mode, {"auto", "incremental", "board_seeded"},
+         "COLMAP's incremental mapper (cost superlinear in the images), frames seeded with their board poses "
+         "(linear), or auto: board_seeded from auto_seeded_min_images images on")
+    .Add("auto_seeded_min_images", &S::auto_seeded_min_images, 1, 100000000,
+         "mode auto: images (all devices) from which board_seeded is taken")
     .Add("seed_min_corners", &S::seed_min_corners, 4, 10000, "board corners a frame needs to seed the model")
     .Add("max_features", &S::max_features, 100, 100000, "SIFT features per image")
     .Add("first_octave", &S::first_octave, -1, 0,

@@ -163,10 +163,39 @@ BoardCalibration InitialLens(const std::vector<CalibFrame>& frames, const std::s
   return c;
 }
 
+std::string ResolveSfmMode(const SfmOptions& so, size_t images, size_t seed_frames, std::string* why) {
+  if (so.mode != "auto") {
+    *why = "sfm.mode " + so.mode;
+    return so.mode;
+  }
+  if (images < static_cast<size_t>(so.auto_seeded_min_images)) {
+    *why = "sfm.mode auto: " + std::to_string(images) + " images, fewer than sfm.auto_seeded_min_images (" +
+           std::to_string(so.auto_seeded_min_images) + ")";
+    return "incremental";
+  }
+  if (seed_frames < 2) {
+    *why = "sfm.mode auto: " + std::to_string(images) + " images but " + std::to_string(seed_frames) +
+           " frames with >= sfm.seed_min_corners board corners to seed the model";
+    return "incremental";
+  }
+  *why = "sfm.mode auto: " + std::to_string(images) + " images (>= sfm.auto_seeded_min_images " +
+         std::to_string(so.auto_seeded_min_images) + "), " + std::to_string(seed_frames) + " board-posed seeds";
+  return "board_seeded";
+}
+
 nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, const std::string& workspace,
                                       const std::string& work_dir, const CalibOptions& options,
                                       BundleProblem* problem, std::map<std::string, double>* timings_s) {
   const SfmOptions& so = options.sfm;
+  size_t seed_frames = 0;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    if (problem->frames[i].posed && static_cast<int>(frames[i].board.corner_ids.size()) >= so.seed_min_corners) {
+      ++seed_frames;
+    }
+  }
+  std::string mode_reason;
+  const std::string mode = ResolveSfmMode(so, frames.size(), seed_frames, &mode_reason);
+  spdlog::info("sfm: {} ({})", mode, mode_reason);
   std::vector<SfmImage> images;
   std::map<std::string, int> frame_of;  // SfM name -> frame index
   for (size_t i = 0; i < frames.size(); ++i) {
@@ -179,7 +208,7 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   // the pass to the V/L model) and with their own frames further apart in
   // time than the sequential matcher reaches (the pass is one closed turn).
   std::vector<std::pair<std::string, std::string>> pairs;
-  const int overlap = so.mode == "board_seeded" ? so.seeded_overlap : so.sequential_overlap;
+  const int overlap = mode == "board_seeded" ? so.seeded_overlap : so.sequential_overlap;
   const double max_angle = so.cross_pair_max_angle_deg * M_PI / 180.0;
   auto add_pairs = [&](size_t a, const std::function<bool(size_t)>& partner) {
     const Eigen::Vector3d da = problem->frames[a].cam_from_world.Inverse().translation.normalized();
@@ -226,7 +255,7 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   run.max_features = so.max_features;
   run.first_octave = so.first_octave;
   run.reuse_dir = so.reuse_dir;
-  if (so.mode == "board_seeded") {
+  if (mode == "board_seeded") {
     // Frames whose board pose rests on enough corners keep it; COLMAP places the rest.
     for (size_t i = 0; i < frames.size(); ++i) {
       if (problem->frames[i].posed && static_cast<int>(frames[i].board.corner_ids.size()) >= so.seed_min_corners) {
@@ -303,7 +332,8 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   nlohmann::json unregistered = nlohmann::json::object();
   for (const auto& [name, reason] : sfm.unregistered) unregistered[name] = reason;
   return {{"ran", true},
-          {"mode", so.mode},
+          {"mode", mode},
+          {"mode_reason", mode_reason},
           {"seeded_frames", run.known_poses.size()},
           {"images", sfm.images},
           {"registered", sfm.model.cam_from_model.size()},

@@ -54,6 +54,11 @@ BoardCalibration InitialLens(const std::vector<CalibFrame>& frames, const std::s
                              int height, const CalibOptions& options, const BoardDetector& detector,
                              bool* fixed, nlohmann::json* report);
 
+// sfm.mode as run: "auto" becomes board_seeded from auto_seeded_min_images
+// images on when at least two frames can seed the model, else incremental;
+// `why` says which and why (for the log and the report).
+std::string ResolveSfmMode(const SfmOptions& so, size_t images, size_t seed_frames, std::string* why);
+
 // Runs COLMAP on the frames, aligns its largest model to the board poses in
 // `problem` (robust similarity on camera centres), gives frames without a
 // board pose their SfM pose and adds the SfM points. `frames[i]` is

@@ -19,6 +19,7 @@
 #include "calib/bundle.h"
 #include "calib/bundle_test_util.h"
 #include "calib/calib_options.h"
+#include "calib/calib_steps.h"
 #include "calib/colmap_sfm.h"
 #include "calib/lights.h"
 #include "calib/truth_accuracy.h"
@@ -88,6 +89,25 @@ TEST(CalibOptionsTest, UnknownKeysAndBadBoardsAreErrors) {
   CalibOptions solver;
   OptionsReader cg = OptionsReader::FromString("workspace: w\nrefine: {linear_solver: cholesky}\n", "calib.yaml");
   EXPECT_THROW(ReadOptions(cg, &solver), Error);
+}
+
+// sfm.mode auto: the seeded path only at capture scale and only when the
+// board can seed it; explicit modes are taken as they are.
+TEST(CalibOptionsTest, AutoSfmModeFollowsImagesAndSeeds) {
+  SfmOptions so;
+  EXPECT_EQ(so.mode, "auto");
+  std::string why;
+  EXPECT_EQ(ResolveSfmMode(so, 220, 200, &why), "incremental");
+  EXPECT_NE(why.find("fewer than sfm.auto_seeded_min_images"), std::string::npos) << why;
+  EXPECT_EQ(ResolveSfmMode(so, 500, 480, &why), "board_seeded");
+  EXPECT_EQ(ResolveSfmMode(so, 3000, 1, &why), "incremental");
+  EXPECT_NE(why.find("1 frames"), std::string::npos) << why;
+  so.auto_seeded_min_images = 100;
+  EXPECT_EQ(ResolveSfmMode(so, 220, 200, &why), "board_seeded");
+  so.mode = "incremental";
+  EXPECT_EQ(ResolveSfmMode(so, 3000, 2900, &why), "incremental");
+  so.mode = "board_seeded";
+  EXPECT_EQ(ResolveSfmMode(so, 10, 0, &why), "board_seeded");  // its own check names the missing seeds
 }
 
 // A board image warped by a known homography; `truth` receives the board
