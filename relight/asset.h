@@ -46,7 +46,8 @@ struct AssetDescription : ObjectLayout {
 
 // Which trained models of a workspace to use per partition.
 enum class ModelSet {
-  kFinal,       // the augmented model (W/relight/augment/KK) when present, else the point-light one
+  kFinal,       // the augmented model (W/relight/augment/KK) when present and fine-tuned from the
+                // current point-light model (a stale one is skipped, with a warning), else the point-light one
   kPointLight,  // only the point-light models of W/relight/partitions/KK (before augmentation)
 };
 

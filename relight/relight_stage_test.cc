@@ -386,6 +386,15 @@ TEST_F(RelightStageTest, AugmentFineTunesThePointLightModelUnderEnvironmentMaps)
   }
   EXPECT_NEAR(sum2 / sum1, 2.0, 0.01);  // half-float storage
   EXPECT_NEAR(cue_2 / cue1, 2.0, 0.01);
+
+  // The partition trained again (other steps): the augment folder was
+  // fine-tuned from the old point-light model and is stale, so the final
+  // model set falls back to the new point-light model until augment reruns.
+  RunTrainStage(dir_, 0, SmallModel(), SmallTraining(24), true, record);
+  EXPECT_EQ(DescribeWorkspace(dir_).partition_models[0],
+            (fs::path(dir_) / "relight/partitions/00/checkpoint").string());
+  RunAugmentStage(dir_, 0, brighter, SmallTraining(24), false, record);
+  EXPECT_EQ(DescribeWorkspace(dir_).partition_models[0], (dir / "checkpoint").string());
 }
 
 TEST(RelightStageErrors, MissingUpstreamOutputsNameTheStageToRun) {
