@@ -187,14 +187,15 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
                                       const std::string& work_dir, const CalibOptions& options,
                                       BundleProblem* problem, std::map<std::string, double>* timings_s) {
   const SfmOptions& so = options.sfm;
-  size_t seed_frames = 0;
+  // Frames whose board pose rests on enough corners: board_seeded's seeds.
+  std::vector<size_t> seeds;
   for (size_t i = 0; i < frames.size(); ++i) {
     if (problem->frames[i].posed && static_cast<int>(frames[i].board.corner_ids.size()) >= so.seed_min_corners) {
-      ++seed_frames;
+      seeds.push_back(i);
     }
   }
   std::string mode_reason;
-  const std::string mode = ResolveSfmMode(so, frames.size(), seed_frames, &mode_reason);
+  const std::string mode = ResolveSfmMode(so, frames.size(), seeds.size(), &mode_reason);
   spdlog::info("sfm: {} ({})", mode, mode_reason);
   std::vector<SfmImage> images;
   std::map<std::string, int> frame_of;  // SfM name -> frame index
@@ -256,12 +257,8 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   run.first_octave = so.first_octave;
   run.reuse_dir = so.reuse_dir;
   if (mode == "board_seeded") {
-    // Frames whose board pose rests on enough corners keep it; COLMAP places the rest.
-    for (size_t i = 0; i < frames.size(); ++i) {
-      if (problem->frames[i].posed && static_cast<int>(frames[i].board.corner_ids.size()) >= so.seed_min_corners) {
-        run.known_poses[images[i].name] = problem->frames[i].cam_from_world;
-      }
-    }
+    // The seeds keep their board pose; COLMAP places the rest.
+    for (const size_t i : seeds) run.known_poses[images[i].name] = problem->frames[i].cam_from_world;
     RELIT_REQUIRE(run.known_poses.size() >= 2, "sfm.mode board_seeded: only ", run.known_poses.size(),
                   " frames show >= sfm.seed_min_corners = ", so.seed_min_corners, " board corners; lower it or "
                   "set sfm.mode: incremental in the --config file");

@@ -1,7 +1,6 @@
 #include "relight/asset.h"
 
 #include <filesystem>
-#include <fstream>
 
 #include <spdlog/spdlog.h>
 
@@ -11,6 +10,7 @@
 #include "core/json_file.h"
 #include "core/run_record.h"
 #include "core/stage_run.h"
+#include "relight/augment.h"
 #include "relight/checkpoint.h"
 #include "relight/sh_encoding.h"
 #include "relight/cue_stage.h"
@@ -22,27 +22,6 @@ namespace relit::relight {
 
 namespace fs = std::filesystem;
 
-namespace {
-
-// augment/KK is fine-tuned from one point-light model (its fingerprint's
-// "source": the hash of partitions/KK/checkpoint/model.pt). After the
-// partition is trained again (new cues, new options) an old augment folder
-// is stale: using it would relight with a model of other inputs.
-bool AugmentedFromCurrentModel(const fs::path& augmented, const fs::path& point) {
-  const fs::path fingerprint_path = augmented / "fingerprint.json", model = point / "checkpoint" / "model.pt";
-  std::ifstream in(fingerprint_path);
-  const nlohmann::json j = in ? nlohmann::json::parse(in, nullptr, false) : nlohmann::json();
-  const bool current = fs::exists(model) && j.is_object() && j.contains("inputs") && j["inputs"].is_object() &&
-                       j["inputs"].value("source", std::string()) == std::to_string(HashFile(model.string()));
-  if (!current) {
-    spdlog::warn("{} was fine-tuned from another point-light model than {} (stale): using the point-light "
-                 "model; run relit-relight augment again for this partition, or delete the folder",
-                 augmented.string(), (point / "checkpoint").string());
-  }
-  return current;
-}
-
-}  // namespace
 using nlohmann::json;
 
 AssetDescription DescribeWorkspace(const std::string& workspace, ModelSet models) {
@@ -70,7 +49,14 @@ AssetDescription DescribeWorkspace(const std::string& workspace, ModelSet models
       return fs::exists(dir / "train.json") && fs::exists(dir / "checkpoint" / "checkpoint.json");
     };
     const fs::path augmented = root / "relight" / "augment" / name, point = root / "relight" / "partitions" / name;
-    if (models == ModelSet::kFinal && trained(augmented) && AugmentedFromCurrentModel(augmented, point)) {
+    bool use_augmented = models == ModelSet::kFinal && trained(augmented);
+    if (use_augmented && !AugmentedFromCurrentModel(augmented.string(), point.string())) {
+      spdlog::warn("{} was fine-tuned from another point-light model than {} (stale): using the point-light "
+                   "model; run relit-relight augment again for this partition, or delete the folder",
+                   augmented.string(), (point / "checkpoint").string());
+      use_augmented = false;
+    }
+    if (use_augmented) {
       asset.partition_models.push_back((augmented / "checkpoint").string());
     } else {
       asset.partition_models.push_back(trained(point) ? (point / "checkpoint").string() : "");

@@ -260,6 +260,10 @@ Batch LoadAugmentedFrame(const fs::path& stem, const CueFormat& format) {
 
 std::string Hash(const std::string& path) { return std::to_string(HashFile(path)); }
 
+// The fingerprint's "source": the point-light model a partition's augment
+// folder is fine-tuned from.
+std::string SourceHash(const fs::path& point_dir) { return Hash((point_dir / "checkpoint" / "model.pt").string()); }
+
 // A fingerprint file, or null when missing or unreadable.
 json ReadFingerprint(const fs::path& path) {
   std::ifstream in(path);
@@ -269,6 +273,13 @@ json ReadFingerprint(const fs::path& path) {
 }
 
 }  // namespace
+
+bool AugmentedFromCurrentModel(const std::string& augment_dir, const std::string& point_dir) {
+  const json previous = ReadFingerprint(fs::path(augment_dir) / "fingerprint.json");
+  if (!previous.is_object() || !previous.contains("inputs") || !previous["inputs"].is_object()) return false;
+  return fs::exists(fs::path(point_dir) / "checkpoint" / "model.pt") &&
+         previous["inputs"].value("source", std::string()) == SourceHash(point_dir);
+}
 
 AugmentStageResult RunAugmentStage(const std::string& workspace, int partition, const AugmentOptions& options,
                                    const TrainStageOptions& train, bool restart, RunRecord& record) {
@@ -385,7 +396,7 @@ AugmentStageResult RunAugmentStage(const std::string& workspace, int partition, 
   result.frames = static_cast<int>(stems_all.size());
 
   // Fine-tuning from the point-light checkpoint.
-  const json fingerprint = {{"frames", frames_fingerprint}, {"source", Hash((source / "checkpoint" / "model.pt").string())},
+  const json fingerprint = {{"frames", frames_fingerprint}, {"source", SourceHash(source)},
                             {"train", OptionsToJson(train.optimizer)}};
   const fs::path fingerprint_path = dir / "fingerprint.json";
   std::unique_ptr<Trainer> trainer;

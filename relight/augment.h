@@ -62,4 +62,10 @@ struct AugmentStageResult {
 AugmentStageResult RunAugmentStage(const std::string& workspace, int partition, const AugmentOptions& options,
                                    const TrainStageOptions& train, bool restart, RunRecord& record);
 
+// True when `augment_dir` (W/relight/augment/KK) was fine-tuned from the
+// point-light model now in `point_dir` (W/relight/partitions/KK): its
+// fingerprint's source is that model's hash. After the partition is trained
+// again (new cues, new options) the augment folder is stale.
+bool AugmentedFromCurrentModel(const std::string& augment_dir, const std::string& point_dir);
+
 }  // namespace relit::relight

@@ -144,15 +144,6 @@ CueLight ToCueLight(const TruthLight& light, double unit_factor) {
 
 namespace {
 
-bool AnyAugmented(const std::string& workspace) {
-  const fs::path dir = fs::path(workspace) / "relight" / "augment";
-  if (!fs::is_directory(dir)) return false;
-  for (const auto& entry : fs::directory_iterator(dir)) {
-    if (fs::exists(entry.path() / "train.json")) return true;
-  }
-  return false;
-}
-
 Image Scaled(Image image, double factor) {
   if (factor != 1.0) {
     for (float& v : image.data()) v *= static_cast<float>(factor);
@@ -214,15 +205,18 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
   record.AddInput("truth", truth_json);
   record.AddInput("plan", (root / "relight/plan/plan.json").string());
 
-  // Methods: the final models, the point-light ones when augmentation exists, the cue regression.
-  const bool augmented = AnyAugmented(root.string());
+  // Methods: the final models, the point-light ones when some partition's
+  // final model is augmented (a stale augment folder is not), the cue regression.
+  const AssetDescription asset = DescribeWorkspace(root.string(), ModelSet::kFinal);
+  const AssetDescription point_asset = DescribeWorkspace(root.string(), ModelSet::kPointLight);
+  const bool augmented = asset.partition_models != point_asset.partition_models;
   std::vector<std::string> methods, skipped;
   for (const std::string& m : options.methods) {
     (m == "model_point_light" && !augmented ? skipped : methods).push_back(m);
   }
   json skipped_reasons = json::object();
   for (const std::string& m : skipped) {
-    skipped_reasons[m] = "no partition has an augmented model in W/relight/augment/";
+    skipped_reasons[m] = "no partition has an augmented model of its current point-light model in W/relight/augment/";
   }
   // The light input of this workspace (cues.input / cues.bases): the cue
   // frames eval renders must be what the models were trained on.
@@ -235,7 +229,6 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
                       "cue frames hold " + format.Describe() + " (score it on a default workspace)";
   }
   for (const std::string& m : skipped) spdlog::info("eval: {} skipped ({})", m, skipped_reasons[m].get<std::string>());
-  const AssetDescription asset = DescribeWorkspace(root.string(), ModelSet::kFinal);
   RELIT_REQUIRE(std::any_of(asset.partition_models.begin(), asset.partition_models.end(),
                             [](const std::string& m) { return !m.empty(); }),
                 "workspace ", workspace, " is not trained: no partition has train.json (run relit-relight train "
@@ -252,7 +245,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
     for (const std::string& m : methods) {
       if (m == "model") renderers[m] = std::make_unique<RelitRenderer>(asset);
       if (m == "model_point_light") {
-        renderers[m] = std::make_unique<RelitRenderer>(DescribeWorkspace(root.string(), ModelSet::kPointLight));
+        renderers[m] = std::make_unique<RelitRenderer>(point_asset);
       }
     }
     for (const auto& [m, renderer] : renderers) {
