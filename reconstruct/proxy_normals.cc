@@ -32,13 +32,20 @@ RELIT_OPTION_FIELDS(NormalMapOptions,
     .Add("min_light_cosine", &S::min_light_cosine, 0.0, 1.0,
          "observations lit more grazingly on the proxy are dropped")
     .Add("saturation_level", &S::saturation_level, 0.0, 1e6, "linear level at which a pixel counts as clipped")
-    .Add("robust_rounds", &S::robust_rounds, 0, 20, "Huber re-weighting rounds"))
+    .Add("robust_rounds", &S::robust_rounds, 0, 20, "Huber re-weighting rounds")
+    .Add("min_explained_variance", &S::min_explained_variance, 0.0, 1.0,
+         "share of a texel's variance the Lambert fit must explain, else the proxy's normal stays (glossy "
+         "surfaces); 0 = off")
+    .Add("max_residual_ratio", &S::max_residual_ratio, 0.0, 1.0,
+         "the estimated normal must cut the Lambert fit's residual with the proxy's normal to this share, else "
+         "the proxy's normal stays (a turn that fits only noise); 1 = off"))
 
 nlohmann::json NormalMapStats::ToJson() const {
   return {{"frames", frames},
           {"observations", observations},
           {"texels_seen", texels_seen},
           {"texels_estimated", texels_estimated},
+          {"texels_not_lambert", texels_not_lambert},
           {"median_change_deg", median_change_deg},
           {"p90_change_deg", p90_change_deg},
           {"seconds", seconds}};
@@ -109,10 +116,32 @@ std::vector<Observation> ObserveFrame(const std::string& workspace, const Camera
   return observations;
 }
 
+// The weighted squared residual of the Lambert fit with the proxy's normal
+// (I = rho l.n + c, rho and c free).
+double ProxyNormalResidual(const Observation* begin, const Observation* end, const std::vector<double>& weights,
+                           const Eigen::Vector3f& proxy_normal) {
+  Eigen::Matrix2d a = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d b = Eigen::Vector2d::Zero();
+  for (const Observation* o = begin; o != end; ++o) {
+    const Eigen::Vector2d row(o->irradiance_direction.dot(proxy_normal), 1.0);
+    a += weights[o - begin] * row * row.transpose();
+    b += weights[o - begin] * row * o->intensity;
+  }
+  a.diagonal() += Eigen::Vector2d::Constant(1e-12 * (a.trace() + 1));
+  const Eigen::Vector2d x = a.ldlt().solve(b);
+  double residual = 0;
+  for (const Observation* o = begin; o != end; ++o) {
+    const double r = o->intensity - x[0] * o->irradiance_direction.dot(proxy_normal) - x[1];
+    residual += weights[o - begin] * r * r;
+  }
+  return residual;
+}
+
 // Robust fit of (b, c) for one texel's observations; returns the unit normal
-// or the proxy's normal when the fit is not trustworthy.
+// or the proxy's normal when the fit is not trustworthy (`not_lambert` when
+// the model explains too little of the texel's variance).
 Eigen::Vector3f FitTexel(const Observation* begin, const Observation* end, const Eigen::Vector3f& proxy_normal,
-                         const NormalMapOptions& options) {
+                         const NormalMapOptions& options, bool* not_lambert) {
   const int count = static_cast<int>(end - begin);
   // The albedo along the proxy normal first (I = rho l.n / r^2 + c), the
   // prior's magnitude.
@@ -143,10 +172,31 @@ Eigen::Vector3f FitTexel(const Observation* begin, const Observation* end, const
     a.topLeftCorner<3, 3>().diagonal().array() += scale;
     rhs.head<3>() += scale * prior;
     x = a.ldlt().solve(rhs);
-    if (round == options.robust_rounds) break;
     std::vector<double> residuals(static_cast<size_t>(count));
     for (int i = 0; i < count; ++i) {
       residuals[i] = std::abs(begin[i].intensity - begin[i].irradiance_direction.cast<double>().dot(x.head<3>()) - x[3]);
+    }
+    if (round == options.robust_rounds) {
+      double weight_sum = 0, mean = 0, total = 0, unexplained = 0;
+      for (int i = 0; i < count; ++i) {
+        weight_sum += weights[i];
+        mean += weights[i] * begin[i].intensity;
+      }
+      mean /= weight_sum;
+      for (int i = 0; i < count; ++i) {
+        total += weights[i] * (begin[i].intensity - mean) * (begin[i].intensity - mean);
+        unexplained += weights[i] * residuals[i] * residuals[i];
+      }
+      if (options.min_explained_variance > 0 && !(unexplained <= (1 - options.min_explained_variance) * total)) {
+        *not_lambert = true;
+        return proxy_normal;
+      }
+      if (options.max_residual_ratio < 1 &&
+          !(unexplained <= options.max_residual_ratio * ProxyNormalResidual(begin, end, weights, proxy_normal))) {
+        *not_lambert = true;  // the turn fits little more than noise
+        return proxy_normal;
+      }
+      break;
     }
     const double sigma = 1.4826 * Median(residuals) + 1e-9;
     for (int i = 0; i < count; ++i) weights[i] = std::min(1.0, 1.5 * sigma / std::max(residuals[i], 1e-12));
@@ -212,6 +262,7 @@ Image EstimateNormalMap(const std::string& workspace, const CamerasFile& cameras
 
   Image map(resolution, resolution, 3);
   std::vector<double> changes_deg(static_cast<size_t>(texels), -1.0);
+  std::vector<char> not_lambert(static_cast<size_t>(texels), 0);
   tbb::parallel_for(0, texels, [&](int t) {
     const Eigen::Vector3f sum = proxy_normal_sum[t];
     if (sum.norm() <= 0) return;  // never seen: zero, the renderer keeps the mesh normal
@@ -219,7 +270,9 @@ Image EstimateNormalMap(const std::string& workspace, const CamerasFile& cameras
     Eigen::Vector3f n = proxy_normal;
     const int count = offsets[t + 1] - offsets[t];
     if (count >= options.min_observations) {
-      n = FitTexel(sorted.data() + offsets[t], sorted.data() + offsets[t + 1], proxy_normal, options);
+      bool rejected = false;
+      n = FitTexel(sorted.data() + offsets[t], sorted.data() + offsets[t + 1], proxy_normal, options, &rejected);
+      not_lambert[t] = rejected;
       changes_deg[t] = std::acos(std::clamp(n.dot(proxy_normal), -1.0f, 1.0f)) * 180.0 / M_PI;
     }
     for (int c = 0; c < 3; ++c) map.at(t % resolution, t / resolution, c) = n[c];
@@ -232,6 +285,7 @@ Image EstimateNormalMap(const std::string& workspace, const CamerasFile& cameras
   for (int t = 0; t < texels; ++t) {
     if (proxy_normal_sum[t].norm() > 0) ++s.texels_seen;
     if (changes_deg[t] >= 0) changes.push_back(changes_deg[t]);
+    s.texels_not_lambert += not_lambert[t];
   }
   s.texels_estimated = static_cast<int>(changes.size());
   if (!changes.empty()) {
@@ -240,10 +294,10 @@ Image EstimateNormalMap(const std::string& workspace, const CamerasFile& cameras
     s.p90_change_deg = changes[changes.size() * 9 / 10];
   }
   s.seconds = SecondsSince(start);
-  spdlog::info("normal map: {} frames, {} observations, {} of {} seen texels estimated, change from the proxy "
-               "median {:.1f} deg (p90 {:.1f}) in {:.1f} s",
-               s.frames, s.observations, s.texels_estimated, s.texels_seen, s.median_change_deg, s.p90_change_deg,
-               s.seconds);
+  spdlog::info("normal map: {} frames, {} observations, {} of {} seen texels estimated ({} kept the proxy's "
+               "normal: not Lambert), change from the proxy median {:.1f} deg (p90 {:.1f}) in {:.1f} s",
+               s.frames, s.observations, s.texels_estimated, s.texels_seen, s.texels_not_lambert, s.median_change_deg,
+               s.p90_change_deg, s.seconds);
   if (stats != nullptr) *stats = s;
   return map;
 }

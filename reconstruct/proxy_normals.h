@@ -39,6 +39,13 @@ struct NormalMapOptions {
   double min_light_cosine = 0.1;  // observations lit more grazingly (on the proxy) are dropped
   double saturation_level = 0.9;  // linear level at or above which a pixel counts as clipped
   int robust_rounds = 3;         // Huber re-weighting rounds
+  // The Lambert model must explain this share of a texel's (weighted)
+  // variance, else the proxy's normal stays: glossy and mirror-like
+  // surfaces break the model and would get random normals.
+  double min_explained_variance = 0.5;
+  // The turned normal must cut the residual of the fit with the proxy's
+  // normal to this share: a right proxy normal stays right.
+  double max_residual_ratio = 0.5;
   static const OptionFields<NormalMapOptions>& Fields();
 };
 
@@ -47,6 +54,7 @@ struct NormalMapStats {
   long long observations = 0;     // lit, unclipped texel observations
   int texels_seen = 0;            // texels with any observation
   int texels_estimated = 0;       // texels with at least min_observations
+  int texels_not_lambert = 0;     // of those, kept the proxy normal (min_explained_variance, max_residual_ratio)
   double median_change_deg = 0;   // estimated vs proxy normal, over estimated texels
   double p90_change_deg = 0;
   double seconds = 0;

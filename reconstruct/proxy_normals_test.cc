@@ -27,6 +27,8 @@ class ProxyNormalsTest : public test_support::TempDirTest {
   const Eigen::Vector3d centre_{0, 0, 0.06};
   const double radius_ = 0.05;
 
+  bool mirror_ = false;  // render a glossy black sphere instead (RenderSphere)
+
   void MakeCapture(CamerasFile* cameras, LightsFile* lights) {
     cameras->undistorted_view = Intrinsics::FromFov(160, 120, 0.45);
     std::mt19937 rng(7);
@@ -72,23 +74,38 @@ class ProxyNormalsTest : public test_support::TempDirTest {
         const Eigen::Vector3d p = origin + (-b - std::sqrt(disc)) * d;
         const Eigen::Vector3d n = (p - centre_).normalized();
         const Eigen::Vector3d to_light = light - p;
-        const double shade = std::max(0.0, n.dot(to_light.normalized())) / to_light.squaredNorm();
-        for (int ch = 0; ch < 3; ++ch) image.at(x, y, ch) = static_cast<float>(0.6 * 0.05 * shade);
+        double value = 0.6 * 0.05 * std::max(0.0, n.dot(to_light.normalized())) / to_light.squaredNorm();
+        if (mirror_) {  // a reflection of a patterned room and a narrow highlight (Blinn-Phong, exponent 300)
+          const Eigen::Vector3d half = (to_light.normalized() - d).normalized();
+          const Eigen::Vector3d r = d - 2 * d.dot(n) * n;
+          value = 0.01 * (1.5 + std::sin(6 * r.x()) * std::cos(4 * r.y()) + r.z()) +
+                  0.03 * std::pow(std::max(0.0, n.dot(half)), 300) / to_light.squaredNorm();
+        }
+        for (int ch = 0; ch < 3; ++ch) image.at(x, y, ch) = static_cast<float>(value);
       }
     }
     return image;
   }
 
-  render::TriangleMesh MakeProxy() const {
+  render::TriangleMesh MakeProxy(double turn_deg = 25) const {
     render::TriangleMesh proxy = render::MakeSphere(centre_.cast<float>(), static_cast<float>(radius_), 16, 8);
     std::mt19937 rng(3);
     std::normal_distribution<float> gauss(0, 1);
     for (Eigen::Vector3f& n : proxy.normals) {
       Eigen::Vector3f side = n.cross(Eigen::Vector3f(gauss(rng), gauss(rng), gauss(rng))).normalized();
-      const float turn = 25 * static_cast<float>(M_PI) / 180;
+      const float turn = static_cast<float>(turn_deg * M_PI / 180);
       n = (std::cos(turn) * n + std::sin(turn) * side).normalized();
     }
     return proxy;
+  }
+
+  double MedianErrorWithMap(const render::TriangleMesh& proxy, const Image* map) const {
+    render::Material material = render::Material::Lambert(render::Rgb::Constant(0.5f));
+    if (map != nullptr) material.normal_map = render::Texture::FromImage(*map, false);
+    render::Scene scene;
+    scene.AddObject(proxy, material, 1);
+    scene.Commit();
+    return MedianNormalError(scene);
   }
 
   // Median angle (deg) between the shading normal `scene` gives and the
@@ -143,6 +160,34 @@ TEST_F(ProxyNormalsTest, FlashFramesRecoverTheNormalsAProxyGetsWrong) {
   EXPECT_GT(before, 15.0);
   EXPECT_LT(after, 10.0);
   EXPECT_LT(after, before / 2);
+}
+
+TEST_F(ProxyNormalsTest, GlossyTexelsKeepTheProxyNormal) {
+  // A mirror-like sphere and an exact proxy: the Lambert fit explains little
+  // of each texel's data (a dim constant, a highlight in a frame or two), so
+  // its normals would be noise.
+  mirror_ = true;
+  CamerasFile cameras;
+  LightsFile lights;
+  MakeCapture(&cameras, &lights);
+  const render::TriangleMesh proxy = MakeProxy(0);
+  NormalMapOptions options;
+  options.resolution_px = 32;
+  NormalMapStats gated, ungated;
+  const Image map = EstimateNormalMap(root_.string(), cameras, lights, cameras.FramesOf("view"), proxy, options, &gated);
+  options.min_explained_variance = 0;  // both gates off: every fit taken, as before they existed
+  options.max_residual_ratio = 1;
+  const Image noise =
+      EstimateNormalMap(root_.string(), cameras, lights, cameras.FramesOf("view"), proxy, options, &ungated);
+  const double exact = MedianErrorWithMap(proxy, nullptr), with_gate = MedianErrorWithMap(proxy, &map),
+               without_gate = MedianErrorWithMap(proxy, &noise);
+  std::cout << "median normal error: proxy " << exact << " deg, gated map " << with_gate << " deg, ungated "
+            << without_gate << " deg; " << gated.ToJson().dump() << "\n";
+  EXPECT_GT(gated.texels_estimated, 100);
+  EXPECT_GT(gated.texels_not_lambert, gated.texels_estimated * 4 / 10);  // the rest fit no positive albedo
+  EXPECT_EQ(ungated.texels_not_lambert, 0);
+  EXPECT_LT(with_gate, exact + 1.0);
+  EXPECT_GT(without_gate, exact + 3.0);  // what the gate prevents
 }
 
 TEST_F(ProxyNormalsTest, UnlitTexelsKeepTheProxyNormal) {

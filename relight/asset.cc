@@ -77,7 +77,7 @@ AssetDescription ReadAsset(const std::string& dir) {
   const json& cues = JsonField(j, "cues", path);
   asset.flash_intensity = JsonNumber(cues, "light_unit_w_per_sr", path);
   asset.cue_max_depth = JsonInt(cues, "max_depth", path);
-  asset.support_plane = SupportPlane::FromJson(cues.value("support_plane", json()), path);
+  asset.support_plane = SupportPlane::FromJson(cues.value("support_plane", json()), path, root.string());
   asset.mesh = (root / JsonField(j, "mesh", path).get<std::string>()).string();
   if (j.contains("normal_map")) asset.normal_map = (root / JsonString(j, "normal_map", path)).string();
   for (const json& p : JsonField(j, "partitions", path)) {
@@ -95,6 +95,9 @@ void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRe
   const fs::path root = out.path();
   fs::copy_file(asset.mesh, root / "proxy.obj");
   if (!asset.normal_map.empty()) fs::copy_file(asset.normal_map, root / "proxy_normals.exr");
+  if (!asset.support_plane.albedo_map.empty()) {  // the manifest names it by file name (SupportPlane::ToJson)
+    fs::copy_file(asset.support_plane.albedo_map, root / fs::path(asset.support_plane.albedo_map).filename());
+  }
   json partitions = json::array();
   int trained = 0;
   CueFormat format;
@@ -159,6 +162,8 @@ void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRe
                   "  the log-encoding constant M.\n"
                   "- `proxy.obj`: the proxy mesh with its UV atlas (metres, board frame, +Z up); `proxy_normals.exr`,\n"
                   "  when present: its object-space normal map (float RGB, read at the UVs).\n"
+                  "- `support_albedo.exr`, when present: the board's albedo map measured on the capture (the cue\n"
+                  "  scenes' support plane, see `cues.support_plane` in the manifest).\n"
                   "- `partitions/KK/`: neural texture and networks (LibTorch `model.pt` + `checkpoint.json`).\n"
                   "- `textures/KK.exr`: level 0 of each neural texture, for inspection.\n\n"
                   "Render it with `relit-render --asset THIS_FOLDER --views views.json --out DIR` (docs/relight.md\n"

@@ -7,6 +7,7 @@
 //                          partition: model folder, network options, M
 //   proxy.obj              the proxy mesh with its UV atlas (world frame, metres)
 //   proxy_normals.exr      its object-space normal map, when it has one
+//   support_albedo.exr     the board's measured albedo map, when the cues had one
 //   partitions/KK/         checkpoint.json + model.pt (texture + networks)
 //   textures/KK.exr        neural texture level 0 (5 C channels, for inspection)
 //   README.md              what the folder is and how to render it

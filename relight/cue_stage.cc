@@ -16,7 +16,7 @@
 #include "core/workspace.h"
 #include "relight/cue_frames.h"
 #include "relight/support_plane.h"
-#include "relight/table_albedo.h"
+#include "relight/support_albedo.h"
 
 namespace relit::relight {
 
@@ -57,7 +57,8 @@ CuesFile ReadCuesFile(const std::string& path) {
     if (j.contains(key)) format[key] = j[key];
   }
   file.format = CueFormat::FromJson(format, path);
-  file.support_plane = SupportPlane::FromJson(j.value("support_plane", json()), path);
+  file.support_plane =
+      SupportPlane::FromJson(j.value("support_plane", json()), path, fs::path(path).parent_path().string());
   for (const json& f : JsonField(j, "frames", path)) {
     const std::string where = path + ": frames[" + std::to_string(file.frames.size()) + "]";
     CueFrameRecord r;
@@ -105,33 +106,54 @@ std::string NormalMapPath(const fs::path& root, const CuesFile& cues) {
   return cues.normal_map.empty() ? "" : (root / cues.normal_map).string();
 }
 
-// The table's albedo measured on the phone V frames (table_albedo.h); the
-// default grey when they do not show enough of it lit (a warning says why).
-Eigen::Vector3d MeasureTableAlbedo(const fs::path& root, const fs::path& mesh_path, const CamerasFile& cameras,
-                                   const CuesFile& cues, RunRecord& record) {
-  auto timer = record.Time("table_albedo");
-  const auto scene = LoadProxyScene(mesh_path.string(), cues.support_plane, NormalMapPath(root, cues));
-  std::vector<TableAlbedoFrame> frames;
-  for (const CueFrameRecord& r : cues.frames) {
+// The support plane's albedos measured on the phone V frames
+// (support_albedo.h): the table's, unless the options give it (the default
+// grey when the frames do not show enough of it lit; a warning says why), and
+// the board's albedo map, written into `dir`.
+void MeasureSupportAlbedo(const fs::path& root, const fs::path& mesh_path, const CamerasFile& cameras,
+                          const CueStageOptions& options, const fs::path& dir, CuesFile* cues, RunRecord& record) {
+  const bool measure_table = options.table_albedo.empty();
+  if (!measure_table) cues->support_plane.table_albedo = Eigen::Vector3d(options.table_albedo.data());
+  if (!measure_table && !options.board_albedo_map) return;
+  auto timer = record.Time("support_albedo");
+  const auto scene = LoadProxyScene(mesh_path.string(), cues->support_plane, NormalMapPath(root, *cues));
+  std::vector<SupportAlbedoFrame> frames;
+  for (const CueFrameRecord& r : cues->frames) {
     const CalibratedFrame* frame = cameras.Find(r.name);
     if (frame == nullptr || frame->image_linear.empty()) continue;
-    frames.push_back({cameras.ViewCamera(*frame), r.light_position_m,
-                      (root / frame->image_linear).string()});
+    frames.push_back({cameras.ViewCamera(*frame), r.light_position_m, (root / frame->image_linear).string()});
   }
-  const TableAlbedoEstimate estimate = EstimateTableAlbedo(*scene, cues.support_plane, frames);
-  record.Set("table_albedo_frames", estimate.frames_used);
-  record.Set("table_albedo_pixels", estimate.table_pixels);
-  const Eigen::Vector3d albedo =
-      estimate.found ? estimate.table_albedo : Eigen::Vector3d::Constant(kDefaultTableAlbedo);
-  if (estimate.found) {
-    spdlog::info("cues: table albedo {:.3f} {:.3f} {:.3f} (linear RGB, {} lit pixels in {} frames against the paper)",
-                 albedo.x(), albedo.y(), albedo.z(), estimate.table_pixels, estimate.frames_used);
-  } else {
-    spdlog::warn("cues: the table's albedo could not be measured ({}); using {} (set cues.table_albedo)",
-                 estimate.reason, kDefaultTableAlbedo);
+  SupportAlbedoOptions measure;
+  measure.board_texel_m = options.board_albedo_map ? options.board_albedo_texel_m : 0.0;
+  const SupportAlbedoEstimate estimate = EstimateSupportAlbedo(*scene, cues->support_plane, frames, measure);
+  record.Set("support_albedo_frames", estimate.frames_used);
+  if (measure_table) {
+    const Eigen::Vector3d albedo =
+        estimate.found ? estimate.table_albedo : Eigen::Vector3d::Constant(kDefaultTableAlbedo);
+    if (estimate.found) {
+      spdlog::info("cues: table albedo {:.3f} {:.3f} {:.3f} (linear RGB, {} lit pixels in {} frames against the "
+                   "paper)", albedo.x(), albedo.y(), albedo.z(), estimate.table_pixels, estimate.frames_used);
+    } else {
+      spdlog::warn("cues: the table's albedo could not be measured ({}); using {} (set cues.table_albedo)",
+                   estimate.reason, kDefaultTableAlbedo);
+    }
+    record.Set("table_albedo_pixels", estimate.table_pixels);
+    record.Set("table_albedo", std::vector<double>{albedo.x(), albedo.y(), albedo.z()});
+    cues->support_plane.table_albedo = albedo;
   }
-  record.Set("table_albedo", std::vector<double>{albedo.x(), albedo.y(), albedo.z()});
-  return albedo;
+  if (!options.board_albedo_map) return;
+  if (estimate.board_albedo.empty()) {
+    spdlog::warn("cues: the board's albedo map could not be measured (no frame shows enough lit paper); the cues "
+                 "assume the bare print");
+    return;
+  }
+  const fs::path map_path = dir / "support_albedo.exr";
+  WriteImage(map_path.string(), estimate.board_albedo);
+  cues->support_plane.albedo_map = map_path.string();
+  spdlog::info("cues: board albedo map {}x{} ({:.0f}% of its texels measured, the print elsewhere)",
+               estimate.board_albedo.width(), estimate.board_albedo.height(),
+               100 * estimate.board_measured_fraction);
+  record.Set("board_albedo_measured_fraction", estimate.board_measured_fraction);
 }
 
 }  // namespace
@@ -218,11 +240,7 @@ CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions&
     cues.support_plane.ink_albedo = options.ink_albedo;
     cues.support_plane.paper_margin_m = options.paper_margin_m;
     cues.support_plane.table_half_size_m = std::max(1.5, 20 * proxy.object_radius_m);
-    if (options.table_albedo.empty()) {
-      cues.support_plane.table_albedo = MeasureTableAlbedo(root, mesh_path, cameras, cues, record);
-    } else {
-      cues.support_plane.table_albedo = Eigen::Vector3d(options.table_albedo.data());
-    }
+    MeasureSupportAlbedo(root, mesh_path, cameras, options, partial, &cues, record);
     cues.support_plane.Check(cameras_path.string());
   }
   auto scene = LoadProxyScene(mesh_path.string(), cues.support_plane, NormalMapPath(root, cues));

@@ -27,6 +27,11 @@ RELIT_OPTION_FIELDS(CueStageOptions,
     .Add("paper_margin_m", &S::paper_margin_m, 0.0, 1.0, "white paper around the printed squares, metres")
     .Add("table_albedo", &S::table_albedo,
          "linear RGB albedo of the table beyond the paper; [] = measured on the phone V frames against the paper")
+    .Add("board_albedo_map", &S::board_albedo_map,
+         "measure the board's albedo map on the phone V frames against the paper (what covers the print under "
+         "the object, e.g. a coaster, then shows in the cues); false = the print as printed")
+    .Add("board_albedo_texel_m", &S::board_albedo_texel_m, 0.0002, 0.01,
+         "texel of the board's albedo map, metres")
     .OnToJson([](const S& s, nlohmann::json* json) {
       if (s.Format().is_default()) {
         json->erase("input");
@@ -35,7 +40,10 @@ RELIT_OPTION_FIELDS(CueStageOptions,
         json->erase("bases");
       }
       if (!s.support_plane) {
-        for (const char* key : {"paper_albedo", "ink_albedo", "paper_margin_m", "table_albedo"}) json->erase(key);
+        for (const char* key : {"paper_albedo", "ink_albedo", "paper_margin_m", "table_albedo", "board_albedo_map",
+                                "board_albedo_texel_m"}) {
+          json->erase(key);
+        }
       }
     }))
 

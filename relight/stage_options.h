@@ -37,8 +37,13 @@ struct CueStageOptions {
   double ink_albedo = 0.03;      // of its printed black
   double paper_margin_m = 0.01;  // white paper around the printed squares
   // Linear RGB of the table beyond the paper; empty = measured on the phone V
-  // frames against the paper (table_albedo.h).
+  // frames against the paper (support_albedo.h).
   std::vector<double> table_albedo;
+  // The board's albedo map measured on the phone V frames (support_albedo.h):
+  // what covers the print under the object (a coaster, a cloth) shows in the
+  // cues' reflections and bounce light. false = the print as printed.
+  bool board_albedo_map = true;
+  double board_albedo_texel_m = 0.001;
 
   CueFormat Format() const { return {input, bases}; }
   // The JSON (OptionsToJson) holds `input` and `bases` only when not the

@@ -4,7 +4,9 @@
 // the object's shadow. Cue scenes include it as context geometry with its own
 // diffuse material (cue_renderer.h), so the radiance cues hold that bounce
 // light instead of leaving it for the networks to invent. Pixels that see the
-// plane stay background in the cue frames.
+// plane stay background in the cue frames. The board's albedo is its print
+// unless an albedo map measured on the frames (support_albedo.h) replaces it:
+// objects often stand on something else than the bare print.
 #pragma once
 
 #include <string>
@@ -13,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/board.h"
+#include "core/image.h"
 #include "core/render/scene.h"
 
 namespace relit::relight {
@@ -25,11 +28,16 @@ struct SupportPlane {
   double paper_margin_m = 0.01;       // white paper around the printed squares
   Eigen::Vector3d table_albedo = Eigen::Vector3d::Constant(0.2);  // linear RGB, beyond the paper
   double table_half_size_m = 1.5;     // the table: a square of this half size
+  // The board quad's measured albedo map (linear RGB EXR, rows from the
+  // print's top); "" = the print. An absolute path in memory; JSON holds its
+  // file name, which lives beside the JSON file (cues.json, manifest.json).
+  std::string albedo_map;
 
   void Check(const std::string& where) const;
   nlohmann::json ToJson() const;
-  // Missing or {"enabled": false} = none (files written before the plane existed).
-  static SupportPlane FromJson(const nlohmann::json& j, const std::string& where);
+  // Missing or {"enabled": false} = none (files written before the plane
+  // existed). `dir` is the folder of the JSON file (albedo_map's folder).
+  static SupportPlane FromJson(const nlohmann::json& j, const std::string& where, const std::string& dir);
   bool operator==(const SupportPlane& o) const { return ToJson() == o.ToJson(); }
 };
 
@@ -37,7 +45,15 @@ struct SupportPlane {
 constexpr int kSupportBoardObjectId = 2;
 constexpr int kSupportTableObjectId = 3;
 
-// Adds the board (textured Lambert: paper / ink) and the table (Lambert,
+// The board quad: the printed squares and their paper margin, centred on the
+// world origin, u along the print's width and v up (world +X, +Y).
+struct BoardQuad {
+  double half_x_m = 0, half_y_m = 0;
+  Image print_albedo;  // the print as albedo (3 channels, ~2 texels per mm, rows from its top)
+};
+BoardQuad MakeBoardQuad(const SupportPlane& plane);
+
+// Adds the board (textured Lambert: the print's paper / ink, or albedo_map) and the table (Lambert,
 // 0.5 mm below the paper) to a cue scene; nothing when disabled. Call before
 // Commit().
 void AddSupportPlane(const SupportPlane& plane, render::Scene* scene);
