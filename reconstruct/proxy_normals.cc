@@ -116,48 +116,43 @@ std::vector<Observation> ObserveFrame(const std::string& workspace, const Camera
   return observations;
 }
 
-// The weighted squared residual of the Lambert fit with the proxy's normal
-// (I = rho l.n + c, rho and c free).
-double ProxyNormalResidual(const Observation* begin, const Observation* end, const std::vector<double>& weights,
-                           const Eigen::Vector3f& proxy_normal) {
+// The weighted least-squares Lambert fit with a fixed normal n: I = rho l.n + c.
+// Returns (rho, c); `residual` (optional) gets the weighted squared residual.
+Eigen::Vector2d FitAlongNormal(const Observation* begin, const Observation* end, const std::vector<double>& weights,
+                               const Eigen::Vector3f& n, double* residual = nullptr) {
   Eigen::Matrix2d a = Eigen::Matrix2d::Zero();
   Eigen::Vector2d b = Eigen::Vector2d::Zero();
   for (const Observation* o = begin; o != end; ++o) {
-    const Eigen::Vector2d row(o->irradiance_direction.dot(proxy_normal), 1.0);
+    const Eigen::Vector2d row(o->irradiance_direction.dot(n), 1.0);
     a += weights[o - begin] * row * row.transpose();
     b += weights[o - begin] * row * o->intensity;
   }
   a.diagonal() += Eigen::Vector2d::Constant(1e-12 * (a.trace() + 1));
   const Eigen::Vector2d x = a.ldlt().solve(b);
-  double residual = 0;
-  for (const Observation* o = begin; o != end; ++o) {
-    const double r = o->intensity - x[0] * o->irradiance_direction.dot(proxy_normal) - x[1];
-    residual += weights[o - begin] * r * r;
+  if (residual != nullptr) {
+    *residual = 0;
+    for (const Observation* o = begin; o != end; ++o) {
+      const double r = o->intensity - x[0] * o->irradiance_direction.dot(n) - x[1];
+      *residual += weights[o - begin] * r * r;
+    }
   }
-  return residual;
+  return x;
 }
 
 // Robust fit of (b, c) for one texel's observations; returns the unit normal
 // or the proxy's normal when the fit is not trustworthy (`not_lambert` when
-// the model explains too little of the texel's variance).
+// the model explains too little of the texel's variance, or the turned normal
+// fits it little better than the proxy's).
 Eigen::Vector3f FitTexel(const Observation* begin, const Observation* end, const Eigen::Vector3f& proxy_normal,
                          const NormalMapOptions& options, bool* not_lambert) {
   const int count = static_cast<int>(end - begin);
+  std::vector<double> weights(static_cast<size_t>(count), 1.0);
   // The albedo along the proxy normal first (I = rho l.n / r^2 + c), the
   // prior's magnitude.
-  Eigen::Matrix2d a2 = Eigen::Matrix2d::Zero();
-  Eigen::Vector2d b2 = Eigen::Vector2d::Zero();
-  for (const Observation* o = begin; o != end; ++o) {
-    const Eigen::Vector2d row(o->irradiance_direction.dot(proxy_normal), 1.0);
-    a2 += row * row.transpose();
-    b2 += row * o->intensity;
-  }
-  a2.diagonal() += Eigen::Vector2d::Constant(1e-12 * (a2.trace() + 1));
-  const double albedo = std::max(0.0, Eigen::Vector2d(a2.ldlt().solve(b2))[0]);
+  const double albedo = std::max(0.0, FitAlongNormal(begin, end, weights, proxy_normal)[0]);
   if (albedo <= 0) return proxy_normal;
   const Eigen::Vector3d prior = albedo * proxy_normal.cast<double>();
 
-  std::vector<double> weights(static_cast<size_t>(count), 1.0);
   Eigen::Vector4d x = Eigen::Vector4d::Zero();
   for (int round = 0; round <= options.robust_rounds; ++round) {
     Eigen::Matrix4d a = Eigen::Matrix4d::Zero();
@@ -191,8 +186,9 @@ Eigen::Vector3f FitTexel(const Observation* begin, const Observation* end, const
         *not_lambert = true;
         return proxy_normal;
       }
-      if (options.max_residual_ratio < 1 &&
-          !(unexplained <= options.max_residual_ratio * ProxyNormalResidual(begin, end, weights, proxy_normal))) {
+      double proxy_residual = 0;
+      if (options.max_residual_ratio < 1) FitAlongNormal(begin, end, weights, proxy_normal, &proxy_residual);
+      if (options.max_residual_ratio < 1 && !(unexplained <= options.max_residual_ratio * proxy_residual)) {
         *not_lambert = true;  // the turn fits little more than noise
         return proxy_normal;
       }

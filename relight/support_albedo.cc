@@ -103,10 +103,11 @@ FrameSamples MeasureFrame(const render::Scene& scene, const SupportPlane& plane,
 
 // The board's map: the median of each texel's samples where it has enough,
 // the print (area-averaged to the map's texels) elsewhere.
-Image BoardAlbedoMap(const SupportPlane& plane, int width, int height, std::vector<std::vector<BoardSample>> per_texel,
-                     const SupportAlbedoOptions& options, double* measured_fraction) {
+Image BoardAlbedoMap(const Image& print_albedo, int width, int height,
+                     std::vector<std::vector<BoardSample>> per_texel, const SupportAlbedoOptions& options,
+                     double* measured_fraction) {
   cv::Mat print_small;
-  cv::resize(MakeBoardQuad(plane).print_albedo.ToMat(), print_small, cv::Size(width, height), 0, 0, cv::INTER_AREA);
+  cv::resize(print_albedo.ToMat(), print_small, cv::Size(width, height), 0, 0, cv::INTER_AREA);
   Image map = Image::FromMat(print_small);
   int64_t measured = 0;
   for (int t = 0; t < width * height; ++t) {
@@ -130,8 +131,9 @@ SupportAlbedoEstimate EstimateSupportAlbedo(const render::Scene& scene, const Su
                                             const SupportAlbedoOptions& options) {
   SupportAlbedoEstimate estimate;
   int map_width = 0, map_height = 0;
+  BoardQuad quad;
   if (options.board_texel_m > 0) {
-    const BoardQuad quad = MakeBoardQuad(plane);
+    quad = MakeBoardQuad(plane);
     map_width = std::max(1, static_cast<int>(std::lround(2 * quad.half_x_m / options.board_texel_m)));
     map_height = std::max(1, static_cast<int>(std::lround(2 * quad.half_y_m / options.board_texel_m)));
   }
@@ -163,7 +165,7 @@ SupportAlbedoEstimate EstimateSupportAlbedo(const render::Scene& scene, const Su
     }
   }
   if (map_width > 0 && estimate.frames_used > 0) {
-    estimate.board_albedo = BoardAlbedoMap(plane, map_width, map_height, std::move(per_texel), options,
+    estimate.board_albedo = BoardAlbedoMap(quad.print_albedo, map_width, map_height, std::move(per_texel), options,
                                            &estimate.board_measured_fraction);
   }
   if (estimate.table_pixels < options.min_table_pixels || albedo[0].empty()) {
