@@ -5,6 +5,8 @@
 //   b  calibrated cameras and flash (calib), true mesh, true mattes
 //   c  calibrated, the reconstruct stage's proxy, true mattes
 //   d  calibrated, the stage's proxy and its own mattes (the whole pipeline)
+// (and, on request, o: rung b with the true mesh moved out by a few tenths of
+// a millimetre: what proxy accuracy the relight stage needs),
 // so that what a stage costs is the difference between two neighbouring rungs.
 // This file builds the rungs' workspaces from a pipeline workspace (capture,
 // calib and reconstruct done) and the synthetic capture's truth.json; the
@@ -16,12 +18,18 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/render/mesh.h"
+
 namespace relit::bench {
 
-// The rungs, in order.
+// The rungs run by default, in order.
 inline const char* const kLadderRungs = "abcd";
-// One line saying what rung `rung` takes from the truth and from the pipeline.
-std::string RungDescription(char rung);
+// Every rung, in table order: rung (o) is rung (b) with the true mesh moved
+// outward by a given distance (--offset-mm), the proxy accuracy a dB costs.
+inline const char* const kAllLadderRungs = "abcdo";
+// One line saying what rung `rung` takes from the truth and from the pipeline
+// (`offset_mm`: rung o's offset).
+std::string RungDescription(char rung, double offset_mm = 1.0);
 
 // Copies the tree `from` to `to` as hard links (a plain copy across file
 // systems). The rungs only read what they link: every file a rung writes
@@ -50,6 +58,17 @@ int WriteTruthMattes(const std::filesystem::path& rung_workspace, const std::fil
 // the single object's own OBJ, or the objects merged into `work_dir`.
 std::string TruthObjectMesh(const std::filesystem::path& synth_dir, const nlohmann::json& truth,
                             const std::filesystem::path& work_dir);
+
+// `mesh` with every position moved `offset_m` along its vertex's
+// area-weighted normal (negative: inward). Positions that are equal (a UV
+// seam's copies) move together, so the surface does not tear. Normals are
+// dropped (reconstruct computes its own).
+render::TriangleMesh OffsetAlongNormals(const render::TriangleMesh& mesh, double offset_m);
+
+// The truth's object mesh (TruthObjectMesh) moved by `offset_m`, written to
+// `work_dir`/truth_objects_offset.obj for rung (o).
+std::string OffsetTruthMesh(const std::filesystem::path& synth_dir, const nlohmann::json& truth,
+                            double offset_m, const std::filesystem::path& work_dir);
 
 // What the ladder table shows of one rung's eval.json: PSNR per light type
 // and "all" (all views and interpolation views) of the model, cue fit and

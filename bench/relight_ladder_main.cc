@@ -2,7 +2,9 @@
 // capture that the pipeline has taken through reconstruct, trains and scores
 // the relight stage on four rungs of inputs (bench/relight_ladder.h): true
 // cameras, flash, mesh and mattes (a); calibrated cameras and flash (b);
-// the stage's proxy (c); the stage's mattes (d, the whole pipeline). Prints
+// the stage's proxy (c); the stage's mattes (d, the whole pipeline); on
+// request (--rungs ...o) rung (b) with the true mesh moved out by
+// --offset-mm, what proxy accuracy the relight stage needs. Prints
 // PSNR per light type per rung and what each stage costs.
 //
 //   relit-bench-relight-ladder --pipeline pipeline.yaml --workspace demo/workspace --out bench-out/ladder-demo
@@ -47,6 +49,7 @@ using Clock = std::chrono::steady_clock;
 
 struct LadderOptions {
   std::string pipeline, workspace, out, rungs = kLadderRungs;
+  double offset_mm = 1.0;  // rung o: the true mesh moved out (negative: in) by this much
   bool force = false;
 };
 
@@ -118,6 +121,7 @@ class Ladder {
                                 {"workspace", workspace_.string()},
                                 {"truth", config_.truth},
                                 {"rungs", o_.rungs},
+                                {"offset_mm", o_.offset_mm},
                                 {"force", o_.force}}},
                    {"rungs", rungs},
                    {"wall_s", SecondsSince(start)}});
@@ -135,10 +139,15 @@ class Ladder {
   }
 
   // The rung's state file, or a fresh one; refuses a rung from other inputs.
+  // What a rung is made from: rung o also from its offset.
+  std::string RungFingerprint(char rung) const {
+    return rung == 'o' ? pipeline::HashJson({{"inputs", fingerprint_}, {"offset_mm", o_.offset_mm}}) : fingerprint_;
+  }
+
   json OpenRung(char rung, const fs::path& rung_ws) {
     if (fs::exists(StatePath(rung_ws))) {
       json state = ReadJsonFile(StatePath(rung_ws).string(), "ladder_rung", 1);
-      if (state.value("fingerprint", "") == fingerprint_) return state;
+      if (state.value("fingerprint", "") == RungFingerprint(rung)) return state;
       RELIT_REQUIRE(o_.force, rung_ws.string(), " was made from another workspace, truth or options: pass --force ",
                     "to redo it, or another --out");
     } else {
@@ -146,7 +155,7 @@ class Ladder {
       RELIT_REQUIRE(!fs::exists(rung_ws), rung_ws.string(),
                     " exists and is not a ladder rung (no ladder_rung.json): pass another --out");
     }
-    return {{"rung", std::string(1, rung)}, {"fingerprint", fingerprint_}, {"done", json::array()},
+    return {{"rung", std::string(1, rung)}, {"fingerprint", RungFingerprint(rung)}, {"done", json::array()},
             {"timings_s", json::object()}};
   }
 
@@ -154,8 +163,9 @@ class Ladder {
     LinkTree(workspace_ / "capture", rung_ws / "capture");
     LinkTree(workspace_ / "calib", rung_ws / "calib");
     if (rung == 'a') WriteTruthCalib(workspace_, truth_, rung_ws);
-    if (rung == 'a' || rung == 'b') {
-      const std::string mesh = TruthObjectMesh(synth_dir_, truth_, out_);
+    if (rung == 'a' || rung == 'b' || rung == 'o') {
+      const std::string mesh = rung == 'o' ? OffsetTruthMesh(synth_dir_, truth_, o_.offset_mm * 1e-3, out_)
+                                           : TruthObjectMesh(synth_dir_, truth_, out_);
       RunTool({Tool("reconstruct"), "--workspace", rung_ws.string(), "--config", reconstruct_config_.string(),
                "--mesh", mesh},
               log);
@@ -190,7 +200,7 @@ class Ladder {
     const fs::path rung_ws = out_ / (std::string("rung-") + rung);
     json state = OpenRung(rung, rung_ws);
     const fs::path log = rung_ws / "ladder.log";
-    spdlog::info("ladder: rung {} ({}) in {}", rung, RungDescription(rung), rung_ws.string());
+    spdlog::info("ladder: rung {} ({}) in {}", rung, RungDescription(rung, o_.offset_mm), rung_ws.string());
     if (!state.value("prepared", false)) {
       // From scratch, also after a crash half-way through the preparation;
       // the state file first, so that a rerun knows the folder is a rung.
@@ -219,6 +229,7 @@ class Ladder {
     }
     const json eval = ReadJsonFile((rung_ws / "relight" / "eval" / "eval.json").string(), "eval", 1);
     state["scores"] = RungScores(eval);
+    if (rung == 'o') state["scores"]["offset_mm"] = o_.offset_mm;
     SaveState(rung_ws, state);
     return state;
   }
@@ -238,14 +249,17 @@ class Ladder {
 int main(int argc, char** argv) {
   return relit::RunMain(argc, argv, [](int argc, char** argv) {
     relit::bench::LadderOptions o;
-    CLI::App app{"relit-bench-relight-ladder: the relight stage on four rungs of true and pipeline inputs (issue 24's "
+    CLI::App app{"relit-bench-relight-ladder: the relight stage on rungs of true and pipeline inputs (issue 24's "
                  "error budget)"};
     app.add_option("--pipeline", o.pipeline, "pipeline.yaml of the capture (its relight/reconstruct sections, "
                                              "inputs.truth)")->required()->check(CLI::ExistingFile);
     app.add_option("--workspace", o.workspace, "the pipeline's workspace, run up to reconstruct")
         ->required()->check(CLI::ExistingDirectory);
     app.add_option("--out", o.out, "folder for the rungs' workspaces, ladder.json and ladder.md")->required();
-    app.add_option("--rungs", o.rungs, "which rungs, e.g. abcd or bd")->capture_default_str();
+    app.add_option("--rungs", o.rungs, "which rungs, e.g. abcd, bd or bo")->capture_default_str();
+    app.add_option("--offset-mm", o.offset_mm,
+                   "rung o: the true mesh moved out along its normals by this much (negative: in)")
+        ->check(CLI::Range(-10.0, 10.0))->capture_default_str();
     app.add_flag("--force", o.force, "redo rungs made from other inputs or options");
     CLI11_PARSE(app, argc, argv);
     return relit::bench::Ladder(o).Run();

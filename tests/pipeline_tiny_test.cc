@@ -179,6 +179,29 @@ TEST_F(PipelineTinyTest, RealStagesChainedByTheOrchestrator) {
   }
 }
 
+// Rung (o)'s mesh: a sphere whose UV seam repeats positions (as an OBJ's
+// seams do) moves out by the offset everywhere, and the seam stays closed.
+TEST(LadderOffsetMesh, MovesAlongNormalsWithoutTearingTheSeam) {
+  const int segments = 64, rings = 32;
+  render::TriangleMesh sphere = render::MakeSphere(Eigen::Vector3f(0.01f, -0.02f, 0.06f), 0.05f, segments, rings);
+  for (int r = 0; r <= rings; ++r) {  // the seam's copies exactly equal, as in an OBJ
+    sphere.positions[r * (segments + 1) + segments] = sphere.positions[r * (segments + 1)];
+  }
+  const render::TriangleMesh moved = bench::OffsetAlongNormals(sphere, 0.001);
+  ASSERT_EQ(moved.positions.size(), sphere.positions.size());
+  EXPECT_TRUE(moved.normals.empty());
+  for (size_t i = 0; i < moved.positions.size(); ++i) {
+    EXPECT_NEAR((moved.positions[i] - Eigen::Vector3f(0.01f, -0.02f, 0.06f)).norm(), 0.051, 2e-5) << i;
+  }
+  for (int r = 0; r <= rings; ++r) {
+    const int first = r * (segments + 1);
+    EXPECT_EQ((moved.positions[first + segments] - moved.positions[first]).norm(), 0.0f) << "ring " << r;
+  }
+  const render::TriangleMesh shrunk = bench::OffsetAlongNormals(sphere, -0.002);
+  EXPECT_NEAR((shrunk.positions[5 * (segments + 1) + 7] - Eigen::Vector3f(0.01f, -0.02f, 0.06f)).norm(), 0.048,
+              2e-5);
+}
+
 // The error-budget ladder's rung (a) (bench/relight_ladder.h) on the tiny
 // capture: calib's output with the truth put in must match truth.json, its
 // true mattes must cover the true mesh seen through the rung's own cameras,
