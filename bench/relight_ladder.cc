@@ -236,7 +236,8 @@ std::string LadderTable(const json& scores) {
     const std::string key(1, rung);
     if (!scores.contains(key)) continue;
     const json& s = scores[key];
-    out << "| (" << rung << ") | " << RungDescription(rung, s.value("offset_mm", 1.0)) << " | " << Cell(s, "model_point") << " | "
+    out << "| (" << rung << ") | " << RungDescription(rung, s.value("offset_mm", 1.0)) << " | "
+        << Cell(s, "model_point") << " | "
         << Cell(s, "model_directional") << " | " << Cell(s, "model_environment") << " | " << Cell(s, "model_all")
         << " | " << Cell(s, "model_interpolation_all") << " | " << Cell(s, "model_extrapolation_all") << " | "
         << Cell(s, "cue_fit_all") << " | " << Cell(s, "cues_only_all") << " | " << Cell(s, "alpha_mae_model")

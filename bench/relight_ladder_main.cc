@@ -138,12 +138,12 @@ class Ladder {
     WriteJsonFile(StatePath(rung_ws).string(), "ladder_rung", 1, state);
   }
 
-  // The rung's state file, or a fresh one; refuses a rung from other inputs.
   // What a rung is made from: rung o also from its offset.
   std::string RungFingerprint(char rung) const {
     return rung == 'o' ? pipeline::HashJson({{"inputs", fingerprint_}, {"offset_mm", o_.offset_mm}}) : fingerprint_;
   }
 
+  // The rung's state file, or a fresh one; refuses a rung from other inputs.
   json OpenRung(char rung, const fs::path& rung_ws) {
     if (fs::exists(StatePath(rung_ws))) {
       json state = ReadJsonFile(StatePath(rung_ws).string(), "ladder_rung", 1);
