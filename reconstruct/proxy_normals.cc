@@ -186,11 +186,13 @@ Eigen::Vector3f FitTexel(const Observation* begin, const Observation* end, const
         *not_lambert = true;
         return proxy_normal;
       }
-      double proxy_residual = 0;
-      if (options.max_residual_ratio < 1) FitAlongNormal(begin, end, weights, proxy_normal, &proxy_residual);
-      if (options.max_residual_ratio < 1 && !(unexplained <= options.max_residual_ratio * proxy_residual)) {
-        *not_lambert = true;  // the turn fits little more than noise
-        return proxy_normal;
+      if (options.max_residual_ratio < 1) {
+        double proxy_residual = 0;
+        FitAlongNormal(begin, end, weights, proxy_normal, &proxy_residual);
+        if (!(unexplained <= options.max_residual_ratio * proxy_residual)) {
+          *not_lambert = true;  // the turn fits little more than noise
+          return proxy_normal;
+        }
       }
       break;
     }
