@@ -53,8 +53,8 @@ struct DensePoints {
 // Depth maps of every frame, then multi-view consistency and fusion.
 DensePoints DenseDepthPoints(const fs::path& workspace, const CamerasFile& cameras,
                              const std::vector<const CalibratedFrame*>& frames, const CropRegion& crop,
-                             const ProxyOptions& options, bool want_consistent_depths, RunRecord* record,
-                             nlohmann::json* report) {
+                             const ProxyOptions& options, bool flash_lit, bool want_consistent_depths,
+                             RunRecord* record, nlohmann::json* report) {
   const size_t n = frames.size();
   std::vector<DepthView> views(n);
   std::vector<Camera> camera_list(n);
@@ -91,6 +91,8 @@ DensePoints DenseDepthPoints(const fs::path& workspace, const CamerasFile& camer
   }
   const DepthMapCache cache(workspace / "reconstruct_cache" / "depth_maps");
   std::atomic<int> cached{0};
+  std::atomic<int64_t> textureless{0};
+  const double min_texture = flash_lit ? options.flash_min_texture : 0.0;
   {
     auto timer = record->Time("proxy_depth_maps");
     Progress progress("depth maps", static_cast<int64_t>(n));
@@ -110,10 +112,17 @@ DensePoints DenseDepthPoints(const fs::path& workspace, const CamerasFile& camer
       }
       depths[i] = pairs.empty() ? cv::Mat(views[i].gray.size(), CV_32F, cv::Scalar(0))
                                 : CombinePairDepthMaps(pairs, options);
+      textureless += DropTexturelessDepths(views[i].gray, min_texture, options.block_size_px, &depths[i]);
       progress.Advance();
     });
   }
   (*report)["pair_depth_maps_from_cache"] = cached.load();
+  (*report)["textureless_depth_px"] = textureless.load();
+  if (min_texture > 0) {
+    spdlog::info("dense: dropped {} depth pixels of the flash-lit frames with a block grey std below {} (no texture "
+                 "to match)",
+                 textureless.load(), min_texture);
+  }
   if (cached > 0) spdlog::info("dense: {} pair depth maps from the cache", cached.load());
   // Dense method only: the advancing front of the sparse method over these
   // points (no COLMAP model) came out worse and unstable on refined points
@@ -287,8 +296,8 @@ render::TriangleMesh BuildProxyFromImages(const fs::path& workspace, const Camer
   const bool have_model = fs::exists(workspace / "calib" / "model" / "points3D.txt");
   DensePoints dense;
   if (options.method == "dense" || !have_model) {
-    dense = DenseDepthPoints(workspace, cameras, frames, crop, options, evidence || options.hull.enabled, record,
-                             report);
+    dense = DenseDepthPoints(workspace, cameras, frames, crop, options, source == "view",
+                             evidence || options.hull.enabled, record, report);
   }
   const double spacing = options.point_spacing_m > 0 ? options.point_spacing_m : 1.5 * dense.pixel_footprint_m;
   const std::string advice =

@@ -47,6 +47,9 @@ RELIT_OPTION_FIELDS(ProxyOptions,
     .Add("speckle_window_px", &S::speckle_window_px, 0, 10000, "StereoSGBM speckle filter window")
     .Add("max_left_right_difference_px", &S::max_left_right_difference_px, 0.0, 100.0,
          "left-right consistency of the disparities")
+    .Add("flash_min_texture", &S::flash_min_texture, 0.0, 255.0,
+         "phone V (flash-lit) frames: grey std (0-255) of a depth pixel's block below which SGBM only filled it "
+         "in: dropped (0 = keep all; the geometry pass keeps all)")
     .Section("photo", &S::photo)
     .Add("min_consistent_views", &S::min_consistent_views, 0, 100,
          "other frames that must see a depth pixel's point at the same depth")

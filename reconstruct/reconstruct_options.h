@@ -83,6 +83,16 @@ struct ProxyOptions {
   int uniqueness_ratio = 10;
   int speckle_window_px = 50;
   double max_left_right_difference_px = 1.0;  // left-right consistency of the disparities
+  // On flash-lit phone V frames (no geometry pass), depth pixels whose
+  // reference window (block_size_px wide) has a grey standard deviation
+  // below this carry no match, only SGBM's smoothness fill: a chord across a
+  // plain or flash-saturated patch, inside a convex surface (the demo cow's
+  // top sat 1.7-2.0 mm low there). They are dropped. Demo cue fit at
+  // 16 / 24 / 32: 18.04 / 18.42 / 18.45 dB (0: 17.56 with the old carving);
+  // at 40 the depth hull fills most of the gaps and the proxy bulges
+  // (3.2 mm). The ambient geometry pass keeps every depth: its plain
+  // patches match (tiny test 2.12 -> 2.52 mm at 8).
+  double flash_min_texture = 24.0;
   PhotoRefineOptions photo;
   // Multi-view geometric consistency: a depth pixel survives when at least
   // min_consistent_views other frames, and at least min_consistent_fraction
@@ -180,7 +190,10 @@ struct RefineOptions {
   double step_m = 0;                    // first (largest) move per iteration (0 = 2 x the median pixel footprint)
   // A view sees through a vertex when its depth there exceeds the vertex's
   // by more than this fraction (the 3x3 nearest depth, so edges do not carve).
-  double free_space_tolerance = 0.01;
+  // Consistent depths still stray 4-10 mm behind the surface: at 0.01 a
+  // quarter of the demo truth's top vertices counted as carved, and the
+  // proxy's top sank ~1 mm. 0.1 leaves carving to Poisson's large bulges.
+  double free_space_tolerance = 0.1;
   int min_free_space_views = 3;         // and more views see through it than see it
   double support_band = 0.04;           // depth within this fraction: the view sees the vertex
   double min_facing_cosine = 0.4;       // views at grazing angles or behind the surface do not judge it

@@ -215,6 +215,31 @@ cv::Mat PairDepthMap(const DepthView& ref, const DepthView& other, const SceneBo
   return depth;
 }
 
+int DropTexturelessDepths(const cv::Mat& gray, double min_texture, int block_size_px, cv::Mat* depth) {
+  if (min_texture <= 0) return 0;
+  RELIT_REQUIRE(gray.size() == depth->size(), "DropTexturelessDepths: image ", gray.cols, "x", gray.rows,
+                " and depth map ", depth->cols, "x", depth->rows, " differ");
+  cv::Mat value, mean, mean_square;
+  gray.convertTo(value, CV_32F);
+  const cv::Size window(block_size_px, block_size_px);
+  cv::blur(value, mean, window, cv::Point(-1, -1), cv::BORDER_REFLECT);
+  cv::blur(value.mul(value), mean_square, window, cv::Point(-1, -1), cv::BORDER_REFLECT);
+  const float min_variance = static_cast<float>(min_texture * min_texture);
+  int dropped = 0;
+  for (int v = 0; v < depth->rows; ++v) {
+    float* row = depth->ptr<float>(v);
+    const float* m = mean.ptr<float>(v);
+    const float* m2 = mean_square.ptr<float>(v);
+    for (int u = 0; u < depth->cols; ++u) {
+      if (row[u] > 0 && m2[u] - m[u] * m[u] < min_variance) {
+        row[u] = 0;
+        ++dropped;
+      }
+    }
+  }
+  return dropped;
+}
+
 cv::Mat CombinePairDepthMaps(const std::vector<cv::Mat>& pairs, const ProxyOptions& options) {
   RELIT_REQUIRE(!pairs.empty(), "CombinePairDepthMaps: no depth maps");
   cv::Mat depth(pairs[0].rows, pairs[0].cols, CV_32F, cv::Scalar(0));

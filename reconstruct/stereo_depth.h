@@ -40,6 +40,12 @@ std::vector<std::vector<int>> SelectStereoNeighbours(const std::vector<Camera>& 
 // pixel grid from `other`: rectification, SGBM both ways, left-right check.
 cv::Mat PairDepthMap(const DepthView& ref, const DepthView& other, const SceneBox& box, const ProxyOptions& options);
 
+// Clears the depths of `depth` (on `gray`'s grid) whose block_size_px
+// window of `gray` has a standard deviation below `min_texture` (grey
+// levels, 0-255): there SGBM had nothing to match and its smoothness term
+// drew a chord. Returns the number of cleared pixels.
+int DropTexturelessDepths(const cv::Mat& gray, double min_texture, int block_size_px, cv::Mat* depth);
+
 // One depth map of a view from its pairs' maps (PairDepthMap's outputs, the
 // same view with different neighbours): where several pairs give a depth the
 // agreeing ones (relative difference below options.depth_tolerance) are

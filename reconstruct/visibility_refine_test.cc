@@ -70,13 +70,29 @@ TEST(VisibilityRefineTest, AnInflatedProxyIsCarvedToTheSeenSurface) {
   const DepthEvidence evidence = RingOfViews(0.0);
   const render::TriangleMesh proxy = Sphere(kRadius + 0.01);
   ASSERT_NEAR(SphereError(proxy).first, 0.01, 1e-4);
+  // A tolerance below the 10-mm gap (3 % of the views' distance): carving
+  // itself moves the vertices in.
+  RefineOptions carving;
+  carving.free_space_tolerance = 0.01;
   RefineReport report;
-  const render::TriangleMesh refined = RefineWithDepthMaps(proxy, evidence, RefineOptions{}, 0.0, &report);
+  const render::TriangleMesh refined = RefineWithDepthMaps(proxy, evidence, carving, 0.0, &report);
   const auto [mean, max] = SphereError(refined);
   EXPECT_LT(mean, 0.0025) << "max " << max;  // from 10 mm
   EXPECT_LT(SphereError(refined, true).first, 0.001);
   EXPECT_GT(report.carved_vertices_first, 0.5 * report.vertices);
   EXPECT_EQ(refined.triangles, proxy.triangles);
+}
+
+TEST(VisibilityRefineTest, AnInflatedProxyIsPulledInWithTheDefaultTolerance) {
+  // The default tolerance (10 %) lies beyond this gap: no view sees through,
+  // and the support pull alone brings the sphere in.
+  const DepthEvidence evidence = RingOfViews(0.0);
+  const render::TriangleMesh proxy = Sphere(kRadius + 0.01);
+  RefineReport report;
+  const render::TriangleMesh refined = RefineWithDepthMaps(proxy, evidence, RefineOptions{}, 0.0, &report);
+  const auto [mean, max] = SphereError(refined);
+  EXPECT_LT(mean, 0.003) << "max " << max;  // from 10 mm
+  EXPECT_LT(SphereError(refined, true).first, 0.0015);
 }
 
 TEST(VisibilityRefineTest, AShrunkenProxyIsPulledOutToTheSeenSurface) {
