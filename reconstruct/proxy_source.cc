@@ -91,7 +91,7 @@ DensePoints DenseDepthPoints(const fs::path& workspace, const CamerasFile& camer
   }
   const DepthMapCache cache(workspace / "reconstruct_cache" / "depth_maps");
   std::atomic<int> cached{0};
-  std::atomic<int64_t> textureless{0};
+  std::atomic<int64_t> textureless{0}, near_edges{0};
   const double min_texture = flash_lit ? options.flash_min_texture : 0.0;
   {
     auto timer = record->Time("proxy_depth_maps");
@@ -113,15 +113,21 @@ DensePoints DenseDepthPoints(const fs::path& workspace, const CamerasFile& camer
       depths[i] = pairs.empty() ? cv::Mat(views[i].gray.size(), CV_32F, cv::Scalar(0))
                                 : CombinePairDepthMaps(pairs, options);
       textureless += DropTexturelessDepths(views[i].gray, min_texture, options.block_size_px, &depths[i]);
+      near_edges += DropDepthsNearFartherEdges(options.edge_margin_px, 2.0 * options.depth_tolerance, &depths[i]);
       progress.Advance();
     });
   }
   (*report)["pair_depth_maps_from_cache"] = cached.load();
   (*report)["textureless_depth_px"] = textureless.load();
+  (*report)["edge_depth_px"] = near_edges.load();
   if (min_texture > 0) {
     spdlog::info("dense: dropped {} depth pixels of the flash-lit frames with a block grey std below {} (no texture "
                  "to match)",
                  textureless.load(), min_texture);
+  }
+  if (options.edge_margin_px > 0) {
+    spdlog::info("dense: dropped {} depth pixels within {} px of a farther depth (fattened edges)", near_edges.load(),
+                 options.edge_margin_px);
   }
   if (cached > 0) spdlog::info("dense: {} pair depth maps from the cache", cached.load());
   // Dense method only: the advancing front of the sparse method over these

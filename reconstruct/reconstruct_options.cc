@@ -50,6 +50,8 @@ RELIT_OPTION_FIELDS(ProxyOptions,
     .Add("flash_min_texture", &S::flash_min_texture, 0.0, 255.0,
          "phone V (flash-lit) frames: grey std (0-255) of a depth pixel's block below which SGBM only filled it "
          "in: dropped (0 = keep all; the geometry pass keeps all)")
+    .Add("edge_margin_px", &S::edge_margin_px, 0, 20,
+         "depth pixels this close to a farther depth (2 x depth_tolerance) are dropped: SGBM's fattened rims")
     .Section("photo", &S::photo)
     .Add("min_consistent_views", &S::min_consistent_views, 0, 100,
          "other frames that must see a depth pixel's point at the same depth")

@@ -240,6 +240,26 @@ int DropTexturelessDepths(const cv::Mat& gray, double min_texture, int block_siz
   return dropped;
 }
 
+int DropDepthsNearFartherEdges(int margin_px, double jump_fraction, cv::Mat* depth) {
+  if (margin_px <= 0) return 0;
+  cv::Mat farthest;  // unknown pixels are 0 and never the farthest
+  cv::dilate(*depth, farthest,
+             cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * margin_px + 1, 2 * margin_px + 1)));
+  const float scale = static_cast<float>(1.0 + jump_fraction);
+  int dropped = 0;
+  for (int v = 0; v < depth->rows; ++v) {
+    float* row = depth->ptr<float>(v);
+    const float* far_row = farthest.ptr<float>(v);
+    for (int u = 0; u < depth->cols; ++u) {
+      if (row[u] > 0 && far_row[u] > row[u] * scale) {
+        row[u] = 0;
+        ++dropped;
+      }
+    }
+  }
+  return dropped;
+}
+
 cv::Mat CombinePairDepthMaps(const std::vector<cv::Mat>& pairs, const ProxyOptions& options) {
   RELIT_REQUIRE(!pairs.empty(), "CombinePairDepthMaps: no depth maps");
   cv::Mat depth(pairs[0].rows, pairs[0].cols, CV_32F, cv::Scalar(0));

@@ -46,6 +46,12 @@ cv::Mat PairDepthMap(const DepthView& ref, const DepthView& other, const SceneBo
 // drew a chord. Returns the number of cleared pixels.
 int DropTexturelessDepths(const cv::Mat& gray, double min_texture, int block_size_px, cv::Mat* depth);
 
+// Clears the depths of `depth` that have a depth more than `jump_fraction`
+// farther within `margin_px` pixels (a square window): SGBM's block carries
+// the nearer surface's disparity across an occlusion edge, so the pixels
+// beside a drop are the fattened ones. Returns the number cleared.
+int DropDepthsNearFartherEdges(int margin_px, double jump_fraction, cv::Mat* depth);
+
 // One depth map of a view from its pairs' maps (PairDepthMap's outputs, the
 // same view with different neighbours): where several pairs give a depth the
 // agreeing ones (relative difference below options.depth_tolerance) are

@@ -1,6 +1,7 @@
 // Stereo depth post-processing on hand-made images: DropTexturelessDepths
 // clears the depths of a plain patch (where SGBM's smoothness term, not a
-// match, set them) and keeps those of a textured one and the image's edge.
+// match, set them) and keeps those of a textured one; DropDepthsNearFartherEdges
+// clears the near side of an occlusion edge (SGBM's fattening).
 #include <random>
 
 #include <gtest/gtest.h>
@@ -51,6 +52,27 @@ TEST(StereoDepth, ZeroMinTextureKeepsEveryDepth) {
   cv::Mat depth(20, 40, CV_32F, cv::Scalar(0.5f));
   EXPECT_EQ(DropTexturelessDepths(gray, 0.0, 5, &depth), 0);
   EXPECT_EQ(cv::countNonZero(depth), 40 * 20);
+}
+
+TEST(StereoDepth, DepthsBesideAFartherSurfaceAreDropped) {
+  // A near square (0.4 m) on a far background (0.6 m), a hole (unknown) at
+  // the left edge: margin 2 clears the near pixels within 2 px of the far
+  // ones, keeps the far ones, and an unknown neighbour is no edge.
+  cv::Mat depth(20, 20, CV_32F, cv::Scalar(0.6f));
+  depth(cv::Rect(5, 5, 10, 10)).setTo(0.4f);
+  depth(cv::Rect(0, 0, 2, 20)).setTo(0.0f);
+  cv::Mat original = depth.clone();
+  const int dropped = DropDepthsNearFartherEdges(2, 0.02, &depth);
+  EXPECT_EQ(dropped, 10 * 10 - 6 * 6);  // the square's 2-px rim
+  for (int v = 0; v < 20; ++v) {
+    for (int u = 0; u < 20; ++u) {
+      const bool rim = original.at<float>(v, u) == 0.4f && (u < 7 || u > 12 || v < 7 || v > 12);
+      EXPECT_EQ(depth.at<float>(v, u), rim ? 0.0f : original.at<float>(v, u)) << u << "," << v;
+    }
+  }
+  cv::Mat untouched = original.clone();
+  EXPECT_EQ(DropDepthsNearFartherEdges(0, 0.02, &untouched), 0);
+  EXPECT_EQ(cv::countNonZero(untouched != original), 0);
 }
 
 TEST(StereoDepth, MismatchedSizesAreAnError) {
