@@ -215,6 +215,18 @@ cv::Mat PairDepthMap(const DepthView& ref, const DepthView& other, const SceneBo
   return depth;
 }
 
+namespace {
+
+// Clears the known depths where `condition` (CV_8U, same size) is set;
+// returns how many.
+int ClearKnownDepthsWhere(const cv::Mat& condition, cv::Mat* depth) {
+  const cv::Mat clear = condition & (*depth > 0);
+  depth->setTo(0, clear);
+  return cv::countNonZero(clear);
+}
+
+}  // namespace
+
 int DropTexturelessDepths(const cv::Mat& gray, double min_texture, int block_size_px, cv::Mat* depth) {
   if (min_texture <= 0) return 0;
   RELIT_REQUIRE(gray.size() == depth->size(), "DropTexturelessDepths: image ", gray.cols, "x", gray.rows,
@@ -224,20 +236,8 @@ int DropTexturelessDepths(const cv::Mat& gray, double min_texture, int block_siz
   const cv::Size window(block_size_px, block_size_px);
   cv::blur(value, mean, window, cv::Point(-1, -1), cv::BORDER_REFLECT);
   cv::blur(value.mul(value), mean_square, window, cv::Point(-1, -1), cv::BORDER_REFLECT);
-  const float min_variance = static_cast<float>(min_texture * min_texture);
-  int dropped = 0;
-  for (int v = 0; v < depth->rows; ++v) {
-    float* row = depth->ptr<float>(v);
-    const float* m = mean.ptr<float>(v);
-    const float* m2 = mean_square.ptr<float>(v);
-    for (int u = 0; u < depth->cols; ++u) {
-      if (row[u] > 0 && m2[u] - m[u] * m[u] < min_variance) {
-        row[u] = 0;
-        ++dropped;
-      }
-    }
-  }
-  return dropped;
+  const cv::Mat variance = mean_square - mean.mul(mean);
+  return ClearKnownDepthsWhere(variance < min_texture * min_texture, depth);
 }
 
 int DropDepthsNearFartherEdges(int margin_px, double jump_fraction, cv::Mat* depth) {
@@ -245,19 +245,7 @@ int DropDepthsNearFartherEdges(int margin_px, double jump_fraction, cv::Mat* dep
   cv::Mat farthest;  // unknown pixels are 0 and never the farthest
   cv::dilate(*depth, farthest,
              cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * margin_px + 1, 2 * margin_px + 1)));
-  const float scale = static_cast<float>(1.0 + jump_fraction);
-  int dropped = 0;
-  for (int v = 0; v < depth->rows; ++v) {
-    float* row = depth->ptr<float>(v);
-    const float* far_row = farthest.ptr<float>(v);
-    for (int u = 0; u < depth->cols; ++u) {
-      if (row[u] > 0 && far_row[u] > row[u] * scale) {
-        row[u] = 0;
-        ++dropped;
-      }
-    }
-  }
-  return dropped;
+  return ClearKnownDepthsWhere(farthest > *depth * (1.0 + jump_fraction), depth);
 }
 
 cv::Mat CombinePairDepthMaps(const std::vector<cv::Mat>& pairs, const ProxyOptions& options) {
