@@ -35,6 +35,7 @@ ModelOptions ModelOptionsFromJson(const nlohmann::json& j_in, const std::string&
   if (j.is_object() && !j.contains("cue_fit")) j["cue_fit"] = "per_texel";
   if (j.is_object() && !j.contains("object_window_margin_px")) j["object_window_margin_px"] = 0;
   if (j.is_object() && !j.contains("mask_band_px")) j["mask_band_px"] = 0;  // alpha over the whole frame
+  if (j.is_object() && !j.contains("mask_correction")) j["mask_correction"] = true;  // they hold a mask network
   for (const char* key : {"input", "bases"}) {
     if (j.is_object() && j.contains(key)) {
       format[key] = j[key];

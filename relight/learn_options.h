@@ -86,6 +86,12 @@ struct ModelOptions {
   int n_blocks = 6;                 // renderer residual blocks (DNL: 9)
   int mask_ngf = 16;                // mask network: half the renderer's channels
   int mask_n_blocks = 3;
+  // Residual variant: a mask network corrects the proxy's coverage. Off by
+  // default: learnt from the stage's mattes, its alpha was worse than the
+  // coverage at every eval measured, and its loss, through the shared
+  // texture, cost the colour 0.26 dB on the demo (docs/relight.md, "Alpha").
+  // The dnl variant always has its mask network (its alpha).
+  bool mask_correction = false;
   // Residual variant: the mask network corrects the coverage only within
   // this many pixels of it; alpha is 0 farther out (0 = everywhere).
   int mask_band_px = 8;

@@ -46,6 +46,16 @@ torch::Tensor MaskLogit(const torch::Tensor& coverage, const torch::Tensor& corr
   return torch::where(band > 0, logit, torch::full_like(logit, -30.0));
 }
 
+// Without a mask network the alpha is the coverage itself: no 1e-3 floor
+// (there is no correction to keep finite); +-30 (alpha within 1e-13 of 0 or 1)
+// where the proxy covers the pixel fully or not at all.
+torch::Tensor CoverageOnlyLogit(const torch::Tensor& coverage) {
+  const auto clamped = coverage.clamp(1e-6, 1.0 - 1e-6);
+  const auto logit = torch::log(clamped) - torch::log1p(-clamped);
+  return torch::where(coverage <= 0, torch::full_like(logit, -30.0),
+                      torch::where(coverage >= 1, torch::full_like(logit, 30.0), logit));
+}
+
 }  // namespace
 
 
@@ -136,7 +146,7 @@ DnlModelImpl::DnlModelImpl(const ModelOptions& options)
   CheckOptions(options_, "model");
   texture_ = register_module("texture", NeuralTexture(options_.TextureOptions()));
   renderer_ = register_module("renderer", ResnetGenerator(options_.RendererOptions()));
-  mask_net_ = register_module("mask", ResnetGenerator(options_.MaskOptions()));
+  if (has_mask_net()) mask_net_ = register_module("mask", ResnetGenerator(options_.MaskOptions()));
   if (options_.residual()) {
     // Weights of the cue regression, [k * 3 + c] per texel, set by the warm
     // start (warm_start.h); gates at 0 so the corrections start as none
@@ -165,8 +175,9 @@ ModelOutput DnlModelImpl::Forward(const Batch& batch_in) {
   const auto weights = options_.cue_fit == "smooth" ? SampleBilinear(regression_, batch.uv, batch.coverage)
                                                    : SampleNearest(regression_, batch.uv, batch.coverage);
   const auto regression = encoding_.Encode(CueRegression(weights, batch.cues));
-  return {regression + renderer_gate_ * renderer_->forward(input),
-          MaskLogit(batch.coverage, mask_gate_ * mask_net_->forward(texture), options_.mask_band_px)};
+  const auto rgb_log = regression + renderer_gate_ * renderer_->forward(input);
+  if (!has_mask_net()) return {rgb_log, CoverageOnlyLogit(batch.coverage)};
+  return {rgb_log, MaskLogit(batch.coverage, mask_gate_ * mask_net_->forward(texture), options_.mask_band_px)};
 }
 
 std::vector<torch::Tensor> DnlModelImpl::gates() const {
@@ -187,7 +198,9 @@ Losses DnlModelImpl::Loss(const ModelOutput& output, const Batch& batch_in, doub
     difference = torch::where(batch.target_rgb >= saturation_level, difference.clamp_max(0.0), difference);
   }
   const auto rgb = (matte * difference.abs()).sum() / (matte.sum() * 3.0).clamp_min(1.0);
-  const auto mask = F::binary_cross_entropy_with_logits(output.mask_logit, matte);
+  // Without a mask network the alpha is the coverage: nothing to learn.
+  const auto mask = has_mask_net() ? F::binary_cross_entropy_with_logits(output.mask_logit, matte)
+                                   : torch::zeros({}, rgb.options());
   return {rgb + mask_loss_weight * mask, rgb, mask};
 }
 
@@ -203,8 +216,9 @@ torch::Tensor DnlModelImpl::Render(const Batch& batch) {
     // variant reads there); the networks' outputs inside.
     output.rgb_log = torch::full({batch.batch_size(), 3, batch.height(), batch.width()}, -1.0, options);
     const auto coverage = batch.coverage.to(options);
-    output.mask_logit = options_.residual() ? MaskLogit(coverage, torch::zeros_like(coverage), options_.mask_band_px)
-                                            : CoverageLogit(coverage);
+    output.mask_logit = !options_.residual() ? CoverageLogit(coverage)
+                        : has_mask_net()     ? MaskLogit(coverage, torch::zeros_like(coverage), options_.mask_band_px)
+                                             : CoverageOnlyLogit(coverage);
     output.rgb_log.slice(2, top, top + window.height()).slice(3, left, left + window.width()).copy_(inside.rgb_log);
     output.mask_logit.slice(2, top, top + window.height()).slice(3, left, left + window.width())
         .copy_(inside.mask_logit);
@@ -227,7 +241,9 @@ Trainer::Trainer(const ModelOptions& model_options, const TrainOptions& train_op
   // networks (each texel sees few pixels per step).
   std::vector<torch::Tensor> networks;
   for (const auto& p : model_->renderer()->parameters()) networks.push_back(p);
-  for (const auto& p : model_->mask_net()->parameters()) networks.push_back(p);
+  if (model_->has_mask_net()) {
+    for (const auto& p : model_->mask_net()->parameters()) networks.push_back(p);
+  }
   for (const auto& p : model_->gates()) networks.push_back(p);
   const double texture_lr =
       train_options_.texture_learning_rate > 0 ? train_options_.texture_learning_rate : train_options_.learning_rate;

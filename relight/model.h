@@ -7,7 +7,8 @@
 // That is variant "dnl". Variant "residual" (the default) corrects a
 // per-texel linear regression of the cues and the proxy's coverage instead:
 //   rgb_log  = LogEncode(sum_k w_k(texel) cue_k) + g_r Renderer(...)
-//   mask     = logit(coverage) + g_m MaskNet(texture)
+//   mask     = logit(coverage) + g_m MaskNet(texture)   (model.mask_correction;
+//              else logit(coverage): no mask network, no mask loss)
 // with w the least-squares fit of the training frames (warm_start.h) and the
 // gates g_r, g_m learnt from 0, so training starts from the cues-only
 // baseline's image and the proxy's alpha.
@@ -109,6 +110,8 @@ class DnlModelImpl : public torch::nn::Module {
   NeuralTexture& texture() { return texture_; }
   ResnetGenerator& renderer() { return renderer_; }
   ResnetGenerator& mask_net() { return mask_net_; }
+  // The dnl variant always; the residual one with model.mask_correction.
+  bool has_mask_net() const { return !options_.residual() || options_.mask_correction; }
   // Residual variant only (undefined for dnl): the cue regression's per-texel
   // weights [1, 15, R, R] and the two correction gates.
   torch::Tensor& regression() { return regression_; }

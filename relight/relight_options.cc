@@ -121,6 +121,9 @@ RELIT_OPTION_FIELDS(ModelOptions,
     .Add("n_blocks", &S::n_blocks, 0, 64, "renderer residual blocks (DNL: 9)")
     .Add("mask_ngf", &S::mask_ngf, 1, 512, "mask network width")
     .Add("mask_n_blocks", &S::mask_n_blocks, 0, 64, "mask network residual blocks")
+    .Add("mask_correction", &S::mask_correction,
+         "residual variant: a mask network corrects the proxy's coverage (off: alpha is the coverage; the dnl "
+         "variant always has its mask network)")
     .Add("mask_band_px", &S::mask_band_px, 0, 4096,
          "residual variant: the mask network corrects the coverage only within this many pixels of it; "
          "alpha is 0 farther out (0 = everywhere, as checkpoints from before it)")

@@ -368,6 +368,7 @@ TEST(ResidualModelTest, MaskCorrectsOnlyNearTheCoverage) {
   ModelOptions model_options = testing::TinyModelOptions();
   model_options.max_radiance = MaxRadiance(frames);
   model_options.object_window_margin_px = 0;
+  model_options.mask_correction = true;
   model_options.mask_band_px = 2;
   DnlModel model(model_options);
   {
@@ -394,6 +395,37 @@ TEST(ResidualModelTest, MaskCorrectsOnlyNearTheCoverage) {
   }
   EXPECT_GT(far, 50);
   EXPECT_GT(near_changed, 10);  // the correction acts inside the band
+}
+
+// Without model.mask_correction (the default) the residual model has no mask
+// network: its alpha is the coverage, whatever the gates, and the mask loss
+// is 0, so training moves nothing for it.
+TEST(ResidualModelTest, WithoutTheMaskCorrectionAlphaIsTheCoverage) {
+  std::vector<Batch> frames = Frames(2, 32, 21);
+  ModelOptions model_options = testing::TinyModelOptions();
+  model_options.max_radiance = MaxRadiance(frames);
+  model_options.object_window_margin_px = 0;
+  ASSERT_FALSE(model_options.mask_correction);
+  DnlModel model(model_options);
+  EXPECT_FALSE(model->has_mask_net());
+  {
+    torch::NoGradGuard no_grad;
+    for (torch::Tensor gate : model->gates()) gate.fill_(25.0);
+  }
+  const auto coverage = frames[0].coverage[0][0];
+  const auto alpha = model->Render(frames[0])[0][3];
+  EXPECT_LT((alpha - coverage).abs().max().item<double>(), 1e-5);
+  const auto full_or_none = (coverage <= 0) | (coverage >= 1);  // no clamp there: sigmoid(+-30)
+  ASSERT_GT(full_or_none.sum().item<int64_t>(), 0);
+  EXPECT_LT((alpha - coverage).masked_select(full_or_none).abs().max().item<double>(), 1e-12);
+  const Losses losses = model->Loss(model->Forward(frames[0]), frames[0], 1.0, 0.0);
+  EXPECT_EQ(losses.mask.item<double>(), 0.0);
+  EXPECT_NEAR(losses.total.item<double>(), losses.rgb.item<double>(), 1e-7);
+
+  model_options.mask_correction = true;
+  DnlModel corrected(model_options);
+  EXPECT_TRUE(corrected->has_mask_net());
+  EXPECT_GT(corrected->Loss(corrected->Forward(frames[0]), frames[0], 1.0, 0.0).mask.item<double>(), 0.0);
 }
 
 // train.matte_threshold: mattes become 0/1 at the threshold; 0 keeps them.
@@ -424,6 +456,31 @@ TEST(CheckpointTest, OlderCheckpointsLoadAsDnl) {
   const DnlModel loaded = LoadModel(checkpoint);
   EXPECT_EQ(loaded->options().variant, "dnl");
   EXPECT_EQ(loaded->options().object_window_margin_px, 0);
+}
+
+// Residual checkpoints from before model.mask_correction hold a mask network:
+// they load with it, and alpha stays what it was.
+TEST(CheckpointTest, OlderResidualCheckpointsKeepTheirMaskNetwork) {
+  TempDir dir;
+  std::vector<Batch> frames = Frames(2, 32, 21);
+  ModelOptions model_options = testing::TinyModelOptions();
+  model_options.max_radiance = MaxRadiance(frames);
+  model_options.object_window_margin_px = 0;
+  model_options.mask_correction = true;
+  Trainer trainer(model_options, TrainOptions());
+  {
+    torch::NoGradGuard no_grad;
+    for (torch::Tensor gate : trainer.model()->gates()) gate.fill_(25.0);
+  }
+  const fs::path checkpoint = dir.path() / "checkpoint";
+  SaveCheckpoint(checkpoint, trainer);
+  const fs::path info_path = checkpoint / "checkpoint.json";
+  nlohmann::json info = nlohmann::json::parse(std::ifstream(info_path));
+  info["model_options"].erase("mask_correction");
+  std::ofstream(info_path) << info.dump(2);
+  DnlModel loaded = LoadModel(checkpoint);
+  EXPECT_TRUE(loaded->has_mask_net());
+  EXPECT_TRUE(torch::allclose(loaded->Render(frames[0]), trainer.model()->Render(frames[0])));
 }
 
 TEST(CheckpointTest, OptionsRoundTripThroughYaml) {
