@@ -197,8 +197,10 @@ class ReportWorkspaceTest : public ::testing::Test {
       std::string log;
       for (int step = 0; step <= 2000; step += 100) {
         const double loss = 0.2 * std::exp(-step / 600.0) + 0.01 + 0.001 * k;
+        // The second trained partition has no mask network (mask loss 0).
+        const double mask_loss = trained.size() == 2 ? 0.0 : 0.2 * loss;
         log += json({{"step", step}, {"time_s", step * 0.05}, {"loss", loss}, {"rgb_loss", 0.8 * loss},
-                     {"mask_loss", 0.2 * loss}}).dump() + "\n";
+                     {"mask_loss", mask_loss}}).dump() + "\n";
         if (step % 500 == 0) log += json({{"step", step}, {"val_psnr_db", 18 + 10 * (1 - std::exp(-step / 700.0))},
                                           {"val_mae", 0.05 * std::exp(-step / 700.0)}}).dump() + "\n";
       }
@@ -284,6 +286,14 @@ TEST_F(ReportWorkspaceTest, FullWorkspaceLoadsInChromiumWithoutErrors) {
                                  "Geometry pass: ", "geometry pass (phone V)"}) {
     EXPECT_NE(html.find(part), std::string::npos) << part;
   }
+  int loss_plots = 0, with_mask = 0;  // every partition's curves but the one without a mask network
+  for (const std::string& src : sources) {
+    if (src.find("_loss.svg") == std::string::npos) continue;
+    ++loss_plots;
+    with_mask += ReadFile(ws / "report" / src).find(">mask") != std::string::npos;
+  }
+  EXPECT_GE(loss_plots, 2);
+  EXPECT_EQ(with_mask, loss_plots - 1);
   for (const std::string& src : sources) {
     if (src.find("trajectories_top.svg") == std::string::npos) continue;
     EXPECT_NE(ReadFile(ws / "report" / src).find("geometry pass"), std::string::npos) << src;

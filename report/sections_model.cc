@@ -230,10 +230,12 @@ Section TrainingSection(ReportContext& context) {
     psnr.title = "partition " + k + ": validation PSNR";
     psnr.y_label = "PSNR (dB)";
     psnr.log_y = false;
-    figures.push_back(Figure(context.WriteAsset("training_" + k + "_loss.svg",
-                                                PlotSvg(loss, {{"loss", log.step, log.loss},
-                                                               {"rgb", log.step, log.rgb_loss},
-                                                               {"mask", log.step, log.mask_loss}})),
+    std::vector<PlotSeries> losses = {{"loss", log.step, log.loss}, {"rgb", log.step, log.rgb_loss}};
+    // A model without a mask network logs a mask loss of 0: nothing to draw on a log scale.
+    if (std::any_of(log.mask_loss.begin(), log.mask_loss.end(), [](double v) { return v > 0; })) {
+      losses.push_back({"mask", log.step, log.mask_loss});
+    }
+    figures.push_back(Figure(context.WriteAsset("training_" + k + "_loss.svg", PlotSvg(loss, losses)),
                              "partition " + k + ": loss per step (log scale)"));
     figures.push_back(Figure(context.WriteAsset("training_" + k + "_psnr.svg",
                                                 PlotSvg(psnr, {{"validation", log.val_step, log.val_psnr_db, "", true,
