@@ -189,6 +189,17 @@ TEST_F(BaselinesTest, ShBaselineFlowsThroughEveryStepAndCompares) {
   const std::string table = CompareEvaluations(inputs);
   std::printf("%s", table.c_str());
   EXPECT_NE(table.find("| sh: sh_dnr | 100 | "), std::string::npos) << table;
+  {
+    // An augment folder the eval did not read (stale) is not the model's training.
+    const fs::path stale = fs::path(ws) / "relight" / "augment" / "00";
+    ASSERT_FALSE(fs::exists(stale.parent_path()));  // this workspace was not augmented
+    fs::create_directories(stale);
+    std::ofstream(stale / "train.json") << nlohmann::json({{"schema", "relit.run/1"}, {"steps", 5000},
+                                                           {"process_cpu_s", 36000.0}, {"total_s", 36000.0}}).dump();
+    const std::string with_stale = CompareEvaluations({{ws + "/relight/eval", "sh"}});
+    fs::remove_all(stale.parent_path());
+    EXPECT_NE(with_stale.find("| sh: sh_dnr | 100 | "), std::string::npos) << with_stale;
+  }
   EXPECT_NE(table.find("CPU-h"), std::string::npos) << table;
   EXPECT_NE(table.find("| environment |"), std::string::npos) << table;
   if (inputs.size() > 1) {

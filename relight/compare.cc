@@ -59,6 +59,23 @@ Budget WorkspaceBudget(const fs::path& workspace, bool with_augment) {
   return b;
 }
 
+// The training behind an eval's "model": every partition's point-light
+// training, plus the augmentation of those partitions whose augmented
+// checkpoint the eval read (eval.json "models"), so a stale augment folder
+// (augmentation since disabled, or not rerun) does not count. Files from
+// before "models" count every augment folder.
+Budget ModelBudget(const fs::path& workspace, const json& eval) {
+  if (!eval.contains("models")) return WorkspaceBudget(workspace, true);
+  Budget b = WorkspaceBudget(workspace, false);
+  for (const json& model : eval["models"]) {
+    const fs::path checkpoint = model.get<std::string>();
+    if (checkpoint.empty()) continue;
+    const fs::path partition_dir = checkpoint.parent_path();
+    if (partition_dir.parent_path().filename() == "augment") b.Add(partition_dir / "train.json");
+  }
+  return b;
+}
+
 }  // namespace
 
 CompareInput ParseCompareInput(const std::string& text) {
@@ -108,7 +125,7 @@ std::string CompareEvaluations(const std::vector<CompareInput>& inputs) {
         row.steps = "-";
         row.budget = "fit, no training";
       } else {
-        const Budget b = WorkspaceBudget(workspace, method == "model");
+        const Budget b = method == "model" ? ModelBudget(workspace, j) : WorkspaceBudget(workspace, false);
         row.label = prefix + ": " + variant + (method == "model_point_light" ? " (point-light model)" : "");
         row.steps = std::to_string(b.steps);
         row.budget = b.Text();
