@@ -88,8 +88,8 @@ AssetDescription ReadAsset(const std::string& dir) {
 }
 
 void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRecord& record,
-                 const OutputGuard* guard) {
-  const AssetDescription asset = DescribeWorkspace(workspace);
+                 const OutputGuard* guard, ModelSet models) {
+  const AssetDescription asset = DescribeWorkspace(workspace, models);
   const Plan plan = ReadPlan((fs::path(workspace) / "relight" / "plan" / "plan.json").string());
   StageRun out(guard ? AtomicDir(out_dir, *guard) : AtomicDir(out_dir), record, "export.json");
   const fs::path root = out.path();

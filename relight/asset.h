@@ -54,12 +54,18 @@ enum class ModelSet {
 
 // From W/relight/{plan,cues,partitions,augment}. Throws when the plan or cues are missing.
 AssetDescription DescribeWorkspace(const std::string& workspace, ModelSet models = ModelSet::kFinal);
+// The models render, export and eval use: the final ones while augmentation
+// is on, else the point-light ones, so that an augment folder left from
+// before `augment.enabled: false` is not used.
+inline ModelSet FinalModels(bool augment_enabled) {
+  return augment_enabled ? ModelSet::kFinal : ModelSet::kPointLight;
+}
 // From an exported folder. Throws relit::Error naming the file.
 AssetDescription ReadAsset(const std::string& dir);
 
 // Writes the asset folder `out_dir` (atomically) from a workspace. `guard`
 // (a user's --out) applies the output-folder rule to `out_dir`.
 void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRecord& record,
-                 const OutputGuard* guard = nullptr);
+                 const OutputGuard* guard = nullptr, ModelSet models = ModelSet::kFinal);
 
 }  // namespace relit::relight

@@ -193,7 +193,7 @@ EvalImageResult TruthNoiseFloor(const TruthView& view, const TruthLight& light, 
 
 EvalSummary RunEval(const std::string& workspace, const std::string& truth_json, const std::string& out_dir,
                     const EvalOptions& options, const RenderStageOptions& render, RunRecord& record,
-                    const OutputGuard* guard) {
+                    const OutputGuard* guard, ModelSet models) {
   CheckOptions(options, "eval");
   CheckOptions(render, "render");
   const fs::path root = fs::absolute(workspace);
@@ -207,7 +207,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
 
   // Methods: the final models, the point-light ones when some partition's
   // final model is augmented (a stale augment folder is not), the cue regression.
-  const AssetDescription asset = DescribeWorkspace(root.string(), ModelSet::kFinal);
+  const AssetDescription asset = DescribeWorkspace(root.string(), models);
   const AssetDescription point_asset = DescribeWorkspace(root.string(), ModelSet::kPointLight);
   const bool augmented = asset.partition_models != point_asset.partition_models;
   std::vector<std::string> methods, skipped;
@@ -216,7 +216,10 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
   }
   json skipped_reasons = json::object();
   for (const std::string& m : skipped) {
-    skipped_reasons[m] = "no partition has an augmented model of its current point-light model in W/relight/augment/";
+    skipped_reasons[m] = models == ModelSet::kPointLight
+                             ? "augmentation is off (augment.enabled: false): the model is the point-light one"
+                             : "no partition has an augmented model of its current point-light model in "
+                               "W/relight/augment/";
   }
   // The light input of this workspace (cues.input / cues.bases): the cue
   // frames eval renders must be what the models were trained on.

@@ -36,6 +36,7 @@
 #include "core/atomic_output.h"
 #include "core/camera.h"
 #include "core/image.h"
+#include "relight/asset.h"
 #include "relight/cue_frames.h"
 #include "relight/cues_baseline.h"
 #include "relight/metrics.h"
@@ -174,9 +175,11 @@ std::string ModelVariantLabel(const CueFormat& format);
 
 // Scores `workspace` against `truth_json` into `out_dir` (atomically).
 // `render` gives the default samples per pixel. `guard` (a user's --out)
-// applies the output-folder rule to `out_dir`.
+// applies the output-folder rule to `out_dir`. `models`: the set method
+// "model" scores (FinalModels(augment.enabled)); "model_point_light" is
+// scored only when that set holds augmented models.
 EvalSummary RunEval(const std::string& workspace, const std::string& truth_json, const std::string& out_dir,
                     const EvalOptions& options, const RenderStageOptions& render, RunRecord& record,
-                    const OutputGuard* guard = nullptr);
+                    const OutputGuard* guard = nullptr, ModelSet models = ModelSet::kFinal);
 
 }  // namespace relit::relight

@@ -60,14 +60,14 @@ const char* kReadme =
 }  // namespace
 
 void ExportInterop(const std::string& workspace, const std::string& out_dir, const InteropOptions& options,
-                   RunRecord& record) {
+                   RunRecord& record, ModelSet models) {
   CheckOptions(options, "export");
   fs::create_directories(out_dir);
   json summary = {{"folder", out_dir}, {"options", OptionsToJson(options)}};
   BakedTexture bake;
   {
     auto timer = record.Time("interop_gltf");
-    summary["gltf"] = ExportGltf(workspace, (fs::path(out_dir) / "gltf").string(), options, &bake);
+    summary["gltf"] = ExportGltf(workspace, (fs::path(out_dir) / "gltf").string(), options, &bake, models);
   }
   {
     auto timer = record.Time("interop_colmap");

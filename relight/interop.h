@@ -154,13 +154,13 @@ int LinkOrCopyFile(const std::string& from, const std::string& to, bool link);
 // README.md, each folder atomically, and records what was written in
 // `record` (field "interop"). Needs a trained workspace (as ExportAsset).
 void ExportInterop(const std::string& workspace, const std::string& out_dir, const InteropOptions& options,
-                   RunRecord& record);
+                   RunRecord& record, ModelSet models = ModelSet::kFinal);
 
 // The pieces, for tests and reuse. Each returns the JSON summary recorded.
 nlohmann::json ExportColmap(const std::string& workspace, const std::string& out_dir, const InteropOptions& options,
                             const BakedTexture* bake);
 nlohmann::json ExportNerf(const std::string& workspace, const std::string& out_dir, const InteropOptions& options);
 nlohmann::json ExportGltf(const std::string& workspace, const std::string& out_dir, const InteropOptions& options,
-                          BakedTexture* bake_out);
+                          BakedTexture* bake_out, ModelSet models = ModelSet::kFinal);
 
 }  // namespace relit::relight

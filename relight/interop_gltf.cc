@@ -161,8 +161,8 @@ void WriteGlb(const std::string& path, const render::TriangleMesh& mesh_in, cons
 }
 
 json ExportGltf(const std::string& workspace, const std::string& out_dir, const InteropOptions& options,
-                BakedTexture* bake_out) {
-  const AssetDescription asset = DescribeWorkspace(workspace);
+                BakedTexture* bake_out, ModelSet models) {
+  const AssetDescription asset = DescribeWorkspace(workspace, models);
   RelitRenderer renderer(asset);
   render::TriangleMesh mesh = render::LoadMesh(asset.mesh);
   RELIT_REQUIRE(mesh.has_uvs(), "glTF export: the proxy mesh ", asset.mesh,

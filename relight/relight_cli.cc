@@ -137,6 +137,14 @@ int RunRelight(int argc, char** argv) {
   RELIT_REQUIRE(fs::is_directory(workspace), "relight: workspace ", workspace, " is not a folder");
   CheckOptions(options);
   const fs::path relight_dir = fs::path(workspace) / "relight";
+  // Augmentation off: render, export and eval use the point-light models,
+  // even where an augment folder of an earlier run is still current.
+  const ModelSet models = FinalModels(options.augment.enabled);
+  if (!options.augment.enabled && fs::is_directory(relight_dir / "augment") &&
+      (render->parsed() || eval->parsed() || export_asset->parsed())) {
+    spdlog::info("augment.enabled is false: the point-light models are used, not {} (delete it to free the space)",
+                 (relight_dir / "augment").string());
+  }
   RunRecord record("relit-relight");
   record.SetCommandLine(argc, argv);
   record.SetOptions(OptionsToJson(options));
@@ -163,24 +171,24 @@ int RunRelight(int argc, char** argv) {
   } else if (render->parsed()) {
     if (!views.empty()) {
       RELIT_REQUIRE(!out.empty(), "render --views needs --out DIR");
-      RunRenderViews(DescribeWorkspace(workspace), views, out, options.render, record, "", force);
+      RunRenderViews(DescribeWorkspace(workspace, models), views, out, options.render, record, "", force);
     } else {
       LogFileScope log((relight_dir / "logs" / "render.log").string(), level);
-      RunRenderStage(workspace, options.render, record);
+      RunRenderStage(workspace, options.render, record, models);
     }
   } else if (eval->parsed()) {
     LogFileScope log((relight_dir / "logs" / "eval.log").string(), level);
     const OutputGuard guard{"relit-relight eval", force, {workspace, truth}};
     RunEval(workspace, truth, out.empty() ? (relight_dir / "eval").string() : out, options.eval, options.render,
-            record, out.empty() ? nullptr : &guard);
+            record, out.empty() ? nullptr : &guard, models);
   }
   if (export_asset->parsed()) {
     LogFileScope log((relight_dir / "logs" / "export.log").string(), level);
     const std::string asset_dir = out.empty() ? (relight_dir / "export").string() : out;
     const OutputGuard guard{"relit-relight export", force, {workspace}};
-    ExportAsset(workspace, asset_dir, record, out.empty() ? nullptr : &guard);
+    ExportAsset(workspace, asset_dir, record, out.empty() ? nullptr : &guard, models);
     if (options.exports.enabled) {
-      ExportInterop(workspace, (fs::path(asset_dir) / "interop").string(), options.exports, record);
+      ExportInterop(workspace, (fs::path(asset_dir) / "interop").string(), options.exports, record, models);
       record.Write((fs::path(asset_dir) / "export.json").string());  // now with what interop/ holds
     }
   }

@@ -5,6 +5,7 @@
 #include <functional>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -368,6 +369,24 @@ TEST_F(RelightStageTest, AugmentFineTunesThePointLightModelUnderEnvironmentMaps)
   EXPECT_EQ(DescribeWorkspace(dir_).partition_models[0], (dir / "checkpoint").string());
   EXPECT_EQ(DescribeWorkspace(dir_, ModelSet::kPointLight).partition_models[0],
             (fs::path(dir_) / "relight/partitions/00/checkpoint").string());
+  // With augmentation off (augment.enabled: false) the exported asset holds
+  // the point-light model although this augment folder is current.
+  {
+    auto file = [](const fs::path& path) {
+      std::ifstream in(path, std::ios::binary);
+      return std::string(std::istreambuf_iterator<char>(in), {});
+    };
+    const fs::path on = fs::path(dir_) / "asset_augment_on", off = fs::path(dir_) / "asset_augment_off";
+    ExportAsset(dir_, on.string(), record, nullptr, FinalModels(true));
+    ExportAsset(dir_, off.string(), record, nullptr, FinalModels(false));
+    const std::string augmented = file(dir / "checkpoint" / "model.pt"),
+                      point_light = file(fs::path(dir_) / "relight/partitions/00/checkpoint/model.pt");
+    ASSERT_NE(augmented, point_light);
+    EXPECT_EQ(file(on / "partitions/00/model.pt"), augmented);
+    EXPECT_EQ(file(off / "partitions/00/model.pt"), point_light);
+    fs::remove_all(on);
+    fs::remove_all(off);
+  }
 
   // Rerun: nothing to redo (frames kept, training already at its end).
   const auto written = fs::last_write_time(targets[0]);

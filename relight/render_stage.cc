@@ -219,9 +219,10 @@ void WriteRgba(const std::string& path_without_extension, const Image& rgba) {
   WriteImage(path_without_extension + ".png", png, PixelStorage::kUint8);
 }
 
-void RunRenderStage(const std::string& workspace, const RenderStageOptions& options, RunRecord& record) {
+void RunRenderStage(const std::string& workspace, const RenderStageOptions& options, RunRecord& record,
+                    ModelSet models) {
   CheckOptions(options, "render");
-  const AssetDescription asset = DescribeWorkspace(workspace);
+  const AssetDescription asset = DescribeWorkspace(workspace, models);
   RelitRenderer renderer(asset);
   const Intrinsics intrinsics =
       options.width_px > 0 ? asset.camera.Scaled(options.width_px, options.height_px) : asset.camera;

@@ -70,7 +70,8 @@ CueLight LightFromJson(const nlohmann::json& j, const std::string& base_dir, con
 // Writes NAME.exr (premultiplied linear RGBA) and NAME.png (sRGB, straight alpha).
 void WriteRgba(const std::string& path_without_extension, const Image& rgba);
 
-void RunRenderStage(const std::string& workspace, const RenderStageOptions& options, RunRecord& record);
+void RunRenderStage(const std::string& workspace, const RenderStageOptions& options, RunRecord& record,
+                    ModelSet models = ModelSet::kFinal);
 // Renders the views of `views_json` with `asset` into `out_dir`. Every view
 // is checked first (unique plain names, valid cameras and lights, at least
 // one view); `out_dir` follows the output-folder rule (OutputGuard, marker
