@@ -24,10 +24,10 @@ double RequireMaxRadiance(double max_radiance) {
   return max_radiance;
 }
 
-// The proxy coverage as a logit, kept inside [1e-3, 1 - 1e-3] so uncovered
+// The proxy coverage as a logit, kept inside [floor, 1 - floor] so uncovered
 // pixels stay finite: the residual variant's alpha before its correction.
-torch::Tensor CoverageLogit(const torch::Tensor& coverage) {
-  const auto clamped = coverage.clamp(1e-3, 1.0 - 1e-3);
+torch::Tensor CoverageLogit(const torch::Tensor& coverage, double floor = 1e-3) {
+  const auto clamped = coverage.clamp(floor, 1.0 - floor);
   return torch::log(clamped) - torch::log1p(-clamped);
 }
 
@@ -50,8 +50,7 @@ torch::Tensor MaskLogit(const torch::Tensor& coverage, const torch::Tensor& corr
 // (there is no correction to keep finite); +-30 (alpha within 1e-13 of 0 or 1)
 // where the proxy covers the pixel fully or not at all.
 torch::Tensor CoverageOnlyLogit(const torch::Tensor& coverage) {
-  const auto clamped = coverage.clamp(1e-6, 1.0 - 1e-6);
-  const auto logit = torch::log(clamped) - torch::log1p(-clamped);
+  const auto logit = CoverageLogit(coverage, 1e-6);
   return torch::where(coverage <= 0, torch::full_like(logit, -30.0),
                       torch::where(coverage >= 1, torch::full_like(logit, 30.0), logit));
 }

@@ -105,7 +105,8 @@ CorrectionChoice KeepHelpfulCorrections(DnlModel& model, const std::vector<Batch
   CorrectionChoice choice;
   choice.trained = Validate(model, validation);
   gates[1].zero_();
-  choice.without_mask = Validate(model, validation);
+  // Without a mask network its gate changes nothing: no second pass.
+  choice.without_mask = model->has_mask_net() ? Validate(model, validation) : choice.trained;
   choice.mask_kept = choice.trained.alpha_mae < choice.without_mask.alpha_mae;
   if (choice.mask_kept) gates[1].copy_(mask_gate);
   const ImageMetrics& with_renderer = choice.mask_kept ? choice.trained : choice.without_mask;
