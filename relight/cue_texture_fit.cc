@@ -88,6 +88,9 @@ RELIT_OPTION_FIELDS(CueFitOptions,
          "(capture.json transfer srgb / gamma2.2), else 0; 0 = every pixel an equality")
     .Add("saturation_rounds", &S::saturation_rounds, 0, 100,
          "active-set rounds for the clipped channels (each a solve at the final level)")
+    .Add("clip_overshoot", &S::clip_overshoot, kAutoClipOvershoot, 100.0,
+         "a clipped channel's lower bound as a multiple of its reading; -1 (auto) = the median overshoot the "
+         "one-sided fit predicts for the clipped channels (at least 1), then solved again; 1 = the reading")
     .Add("align_rounds", &S::align_rounds, 0, 20,
          "> 0: after each solve, shift every frame's image and matte by the sub-pixel translation that best "
          "matches the fit, then solve again")
@@ -96,12 +99,14 @@ RELIT_OPTION_FIELDS(CueFitOptions,
 void CueFitOptions::Check() const {
   RELIT_REQUIRE(saturation_level >= 0 || saturation_level == kAutoSaturationLevel,
                 "saturation_level must be >= 0 or -1 (auto), got ", saturation_level);
+  RELIT_REQUIRE(clip_overshoot >= 1 || clip_overshoot == kAutoClipOvershoot,
+                "clip_overshoot must be >= 1 or -1 (auto), got ", clip_overshoot);
 }
 
 nlohmann::json CueFitStats::ToJson() const {
   return {{"pixels", pixels},          {"saturated_pixels", saturated_pixels}, {"saturated_above", saturated_above}, {"texels_seen", texels_seen},
           {"iterations", iterations},  {"rms_residual", rms_residual},         {"median_shift_px", median_shift_px},
-          {"max_shift_px", max_shift_px}};
+          {"max_shift_px", max_shift_px}, {"clip_overshoot", clip_overshoot}};
 }
 
 CueTextureFit::CueTextureFit(int resolution_px, const CueFitOptions& options)
@@ -365,7 +370,7 @@ int CueTextureFit::SolveChannel(int c, int res, const Vec5& global, std::vector<
     const Eigen::Map<const Vec5> q(cue);
     const Bilinear b = BilinearAt(s.u, s.v, res);
     for (int j = 0; j < 4; ++j) {
-      for (int k = 0; k < kBases; ++k) rhs[static_cast<size_t>(b.texel[j]) * kBases + k] += b.weight[j] * s.target[c] * cue[k];
+      for (int k = 0; k < kBases; ++k) rhs[static_cast<size_t>(b.texel[j]) * kBases + k] += b.weight[j] * Bound(s, c) * cue[k];
       block[b.texel[j]] += (b.weight[j] * b.weight[j]) * q * q.transpose();
     }
   }
@@ -458,7 +463,7 @@ int64_t CueTextureFit::UpdateActiveSets() {
     const std::array<float, kWeights> w = WeightsAt(s.u, s.v);
     for (int c = 0; c < 3; ++c) {
       if (!(s.clipped >> c & 1)) continue;
-      const char below = PredictChannel(w, s.cues.data(), c) < s.target[c] ? 1 : 0;
+      const char below = PredictChannel(w, s.cues.data(), c) < Bound(s, c) ? 1 : 0;
       changed += below != active_[c][i];
       active_[c][i] = below;
     }
@@ -473,6 +478,20 @@ int CueTextureFit::SolveClipped() {
     iterations += SolveWeights(/*from_scratch=*/false);
   }
   return iterations;
+}
+
+double CueTextureFit::MedianClipOvershoot() const {
+  std::vector<double> ratios;
+  for (const Sample& s : samples_) {
+    if (!s.clipped) continue;
+    const std::array<float, kWeights> w = WeightsAt(s.u, s.v);
+    for (int c = 0; c < 3; ++c) {
+      if (s.clipped >> c & 1) ratios.push_back(std::max(1.0, PredictChannel(w, s.cues.data(), c) / s.target[c]));
+    }
+  }
+  if (ratios.empty()) return 1.0;
+  std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
+  return ratios[ratios.size() / 2];
 }
 
 void CueTextureFit::PrepareSamples() {
@@ -507,6 +526,18 @@ CueFitStats CueTextureFit::Solve() {
   CueFitStats stats;
   stats.iterations = SolveWeights(/*from_scratch=*/true);
   stats.iterations += SolveClipped();
+  // The one-sided fit leaves channels clipped in every bright frame at their
+  // reading; lift every clipped reading by the overshoot the rest of the fit
+  // predicts for clipped pixels, and solve again.
+  const double overshoot =
+      options_.clip_overshoot == CueFitOptions::kAutoClipOvershoot ? MedianClipOvershoot() : options_.clip_overshoot;
+  if (overshoot > 1.0) {
+    clip_overshoot_ = overshoot;
+    UpdateActiveSets();
+    stats.iterations += SolveWeights(/*from_scratch=*/false);
+    stats.iterations += SolveClipped();
+  }
+  stats.clip_overshoot = clip_overshoot_;
   const int rounds = frames_.empty() ? 0 : options_.align_rounds;
   for (int round = 0; round < rounds; ++round) {
     AlignFrames();
@@ -517,7 +548,12 @@ CueFitStats CueTextureFit::Solve() {
   stats.pixels = static_cast<int64_t>(samples_.size());
   for (size_t i = 0; i < samples_.size(); ++i) {
     stats.saturated_pixels += samples_[i].clipped != 0;
-    for (int c = 0; c < 3; ++c) stats.saturated_above += (samples_[i].clipped >> c & 1) && !active_[c][i];
+    const Sample& s = samples_[i];
+    if (!s.clipped) continue;
+    const std::array<float, kWeights> w = WeightsAt(s.u, s.v);
+    for (int c = 0; c < 3; ++c) {
+      stats.saturated_above += (s.clipped >> c & 1) && PredictChannel(w, s.cues.data(), c) > s.target[c];
+    }
   }
 
   const size_t texels = static_cast<size_t>(resolution_) * resolution_;
@@ -530,7 +566,7 @@ CueFitStats CueTextureFit::Solve() {
     for (int c = 0; c < 3; ++c) {
       const double pred = PredictChannel(w, s.cues.data(), c);
       // A clipped channel only bounds the prediction from below.
-      const double error = (s.clipped >> c & 1) ? std::min(0.0, pred - s.target[c]) : pred - s.target[c];
+      const double error = (s.clipped >> c & 1) ? std::min(0.0, pred - Bound(s, c)) : pred - s.target[c];
       sq += error * error;
     }
   }

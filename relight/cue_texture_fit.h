@@ -65,6 +65,17 @@ struct CueFitOptions {
   // (HDR video keeps highlights; rendered test workspaces are not clipped).
   double saturation_level = kAutoSaturationLevel;
   int saturation_rounds = 4;  // active-set rounds for the clipped pixels
+  // How far above its reading a clipped channel is asked to be: the
+  // one-sided fit alone leaves a channel clipped in every frame that sees
+  // it brightly at its lowest value, below the truth (the demo's white and
+  // pink cow came out short of red: cyan specks under dimmer lights).
+  // -1 (auto): the median, over the clipped channels, of how far above its
+  // reading the one-sided fit predicts each (at least 1), i.e. how much the
+  // frames that do pin a texel down say clipped pixels overshoot; the fit
+  // is then solved again with every clipped reading times that factor as
+  // its lower bound. 1 = the reading itself.
+  double clip_overshoot = kAutoClipOvershoot;
+  static constexpr double kAutoClipOvershoot = -1.0;
   static constexpr double kAutoSaturationLevel = -1.0;
   static constexpr double kSdrSaturationLevel = 0.9;
   // Frames added whole (AddFrame) are aligned to the fit: after each solve,
@@ -89,6 +100,7 @@ struct CueFitStats {
   int64_t pixels = 0;       // foreground pixels fitted
   int64_t saturated_pixels = 0;  // foreground pixels with a clipped channel (fitted one-sided)
   int64_t saturated_above = 0;   // of their clipped channels, those the fit predicts above the observed value
+  double clip_overshoot = 1;     // the factor clipped readings were lifted by (CueFitOptions::clip_overshoot)
   int64_t texels_seen = 0;  // texels of the final level with pixel weight
   int iterations = 0;       // conjugate-gradient iterations, all levels and channels
   double rms_residual = 0;  // training pixels, linear, all channels
@@ -177,7 +189,14 @@ class CueTextureFit {
   // their observed value).
   int SolveChannel(int c, int resolution, const Eigen::Matrix<double, kBases, 1>& global,
                    std::vector<double>* z) const;
-  // Puts each clipped channel predicted below its observed value into the
+  // What the fit asks of channel c of `s`: its reading, or for a clipped
+  // channel the reading x clip_overshoot_ (a lower bound).
+  double Bound(const Sample& s, int c) const {
+    return (s.clipped >> c & 1) ? clip_overshoot_ * s.target[c] : s.target[c];
+  }
+  // The median over clipped channels of max(1, prediction / reading).
+  double MedianClipOvershoot() const;
+  // Puts each clipped channel predicted below its bound into the
   // active set; returns how many changed.
   int64_t UpdateActiveSets();
   // Active-set rounds (saturation_rounds) at the final level; returns CG iterations.
@@ -191,6 +210,7 @@ class CueTextureFit {
   std::vector<Sample> loose_;    // from AddPixel
   std::vector<Frame> frames_;    // from AddFrame
   int64_t frame_pixels_ = 0;     // foreground pixels in frames_
+  double clip_overshoot_ = 1.0;  // the lift of clipped readings in use (Bound)
   int frames_added_ = 0;
   std::array<Eigen::Matrix<double, kBases, 1>, 3> global_;
   std::array<std::vector<double>, 3> z_;  // per channel, [texel * 5 + k], on unit-RMS cues

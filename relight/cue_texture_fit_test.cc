@@ -1,7 +1,9 @@
 #include "relight/cue_texture_fit.h"
 
+#include <array>
 #include <cmath>
 #include <random>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -206,6 +208,43 @@ TEST(CueTextureFitTest, ClippedPixelsStillPullUp) {
   const CueFitStats stats = fit.Solve();
   EXPECT_EQ(stats.saturated_above, 0);
   EXPECT_NEAR(fit.WeightsAt(0.5f, 0.5f)[0], 0.25 * 0.95 + 0.75 * 0.5, 0.01);
+}
+
+// A channel clipped in every frame that sees it is only bounded below, and
+// the one-sided fit leaves it at its reading: a pink surface (0.8, 0.4,
+// 0.4) lit only by a cue of 1.5 reads red 1 (1.2 clipped), so red rests
+// at 1 / 1.5 = 0.67. A white surface (0.6) seen under cues of 1 and 2 pins
+// its own clipped readings 1.2x above the clip; auto lifts every clipped
+// reading by that median overshoot, and the pink's red comes back to 0.8.
+TEST(CueTextureFitTest, ClippedReadingsAreLiftedByTheOvershootTheFitSees) {
+  auto fit_pink = [](double clip_overshoot, CueFitStats* stats) {
+    CueFitOptions options;
+    options.saturation_level = 0.9;
+    options.clip_overshoot = clip_overshoot;
+    CueTextureFit fit(4, options);
+    auto lambert = [](float e) { return std::array<float, 15>{e, e, e, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0}; };
+    const std::array<float, 15> one = lambert(1), two = lambert(2), one_and_half = lambert(1.5f);
+    const float white_dim[3] = {0.6f, 0.6f, 0.6f}, white_clipped[3] = {1, 1, 1}, pink_clipped[3] = {1, 0.6f, 0.6f};
+    for (int i = 0; i < 60; ++i) {
+      fit.AddPixel(i % 2 ? one.data() : two.data(), 0.125f, 0.5f, i % 2 ? white_dim : white_clipped);
+      fit.AddPixel(one_and_half.data(), 0.875f, 0.5f, pink_clipped);
+    }
+    *stats = fit.Solve();
+    return std::make_pair(fit.WeightsAt(0.125f, 0.5f), fit.WeightsAt(0.875f, 0.5f));
+  };
+  CueFitStats lifted, reading;
+  const auto [white, pink] = fit_pink(CueFitOptions::kAutoClipOvershoot, &lifted);
+  const auto [white_at_reading, pink_at_reading] = fit_pink(1.0, &reading);
+  EXPECT_NEAR(lifted.clip_overshoot, 1.2, 0.02);
+  EXPECT_EQ(reading.clip_overshoot, 1.0);
+  EXPECT_NEAR(pink_at_reading[0], 1.0 / 1.5, 0.02);  // red short
+  EXPECT_NEAR(pink[0], 0.8, 0.03);
+  EXPECT_NEAR(pink[1], 0.4, 0.01);
+  EXPECT_NEAR(white[0], 0.6, 0.01);
+  EXPECT_NEAR(white_at_reading[0], 0.6, 0.01);
+  CueFitOptions bad;
+  bad.clip_overshoot = 0.5;
+  EXPECT_ANY_THROW(CheckOptions(bad));
 }
 
 // Auto: clipped pixels only in SDR video; an explicit level always wins.
