@@ -500,6 +500,7 @@ void CueTextureFit::PrepareSamples() {
 }
 
 CueFitStats CueTextureFit::Solve() {
+  clip_overshoot_ = 1.0;  // a second Solve starts again from the readings
   PrepareSamples();
   RELIT_REQUIRE(!samples_.empty(), "cue fit: no foreground pixel in the training frames");
   // Unit-RMS cues, so that smoothness and ridge count in pixels' worth.
@@ -546,27 +547,20 @@ CueFitStats CueTextureFit::Solve() {
     stats.iterations += SolveClipped();
   }
   stats.pixels = static_cast<int64_t>(samples_.size());
-  for (size_t i = 0; i < samples_.size(); ++i) {
-    stats.saturated_pixels += samples_[i].clipped != 0;
-    const Sample& s = samples_[i];
-    if (!s.clipped) continue;
-    const std::array<float, kWeights> w = WeightsAt(s.u, s.v);
-    for (int c = 0; c < 3; ++c) {
-      stats.saturated_above += (s.clipped >> c & 1) && PredictChannel(w, s.cues.data(), c) > s.target[c];
-    }
-  }
-
   const size_t texels = static_cast<size_t>(resolution_) * resolution_;
   std::vector<char> seen(texels, 0);
   double sq = 0;
   for (const Sample& s : samples_) {
     const Bilinear b = BilinearAt(s.u, s.v, resolution_);
     for (int j = 0; j < 4; ++j) seen[b.texel[j]] |= b.weight[j] > 0 ? 1 : 0;
+    stats.saturated_pixels += s.clipped != 0;
     const std::array<float, kWeights> w = WeightsAt(s.u, s.v);
     for (int c = 0; c < 3; ++c) {
       const double pred = PredictChannel(w, s.cues.data(), c);
+      const bool clipped = s.clipped >> c & 1;
+      stats.saturated_above += clipped && pred > s.target[c];
       // A clipped channel only bounds the prediction from below.
-      const double error = (s.clipped >> c & 1) ? std::min(0.0, pred - Bound(s, c)) : pred - s.target[c];
+      const double error = clipped ? std::min(0.0, pred - Bound(s, c)) : pred - s.target[c];
       sq += error * error;
     }
   }
