@@ -70,6 +70,7 @@ void SaveCheckpoint(const std::filesystem::path& dir, Trainer& trainer) {
   WithTorchErrors(rng_path, "write", [&] { torch::save(trainer.generator().get_state(), rng_path.string()); });
   nlohmann::json body = {
       {"step", trainer.step()},
+      {"clip_overshoot", trainer.clip_overshoot()},
       {"model_options", OptionsToJson(trainer.model()->options())},
       {"train_options", OptionsToJson(trainer.train_options())},
       {"torch_version", TORCH_VERSION},
@@ -87,6 +88,12 @@ CheckpointInfo ReadCheckpointInfo(const std::filesystem::path& dir) {
   RELIT_REQUIRE(step.is_number_integer() && step.get<int64_t>() >= 0, path,
                 ": 'step' must be a non-negative integer");
   info.step = step.get<int64_t>();
+  // Checkpoints from before the lift trained with the readings as the bound.
+  if (j.contains("clip_overshoot")) {
+    const nlohmann::json& lift = j["clip_overshoot"];
+    RELIT_REQUIRE(lift.is_number() && lift.get<double>() >= 1, path, ": 'clip_overshoot' must be a number >= 1");
+    info.clip_overshoot = lift.get<double>();
+  }
   info.model_options = ModelOptionsFromJson(JsonField(j, "model_options", path), path + " model_options");
   info.train_options = TrainOptionsFromJson(JsonField(j, "train_options", path), path + " train_options");
   return info;
@@ -109,6 +116,7 @@ std::unique_ptr<Trainer> LoadTrainer(const std::filesystem::path& dir, const std
     trainer->generator().set_state(rng_state);
   });
   trainer->set_step(info.step);
+  trainer->set_clip_overshoot(info.clip_overshoot);
   return trainer;
 }
 

@@ -29,6 +29,7 @@ struct CheckpointInfo {
   static constexpr int kVersion = 1;
 
   int64_t step = 0;
+  double clip_overshoot = 1;  // the loss's lift of clipped targets (Trainer::set_clip_overshoot)
   ModelOptions model_options;
   TrainOptions train_options;
 };

@@ -171,8 +171,12 @@ ModelOutput DnlModelImpl::Forward(const Batch& batch_in) {
                                              : BuildNetworkInput(texture, batch.cues, encoding_.max_radiance());
   if (!options_.residual()) return {renderer_->forward(input), mask_net_->forward(texture)};
   // Corrections on top of the cue regression and of the proxy's coverage.
-  const auto weights = options_.cue_fit == "smooth" ? SampleBilinear(regression_, batch.uv, batch.coverage)
-                                                   : SampleNearest(regression_, batch.uv, batch.coverage);
+  // The cues already carry the coverage (a silhouette pixel's paths that
+  // miss the proxy add nothing), so the weights are read unscaled, as the
+  // cue fit predicts (CueTextureFit::Predict).
+  const auto covered = (batch.coverage > 0).to(batch.coverage.dtype());
+  const auto weights = options_.cue_fit == "smooth" ? SampleBilinear(regression_, batch.uv, covered)
+                                                   : SampleNearest(regression_, batch.uv, covered);
   const auto regression = encoding_.Encode(CueRegression(weights, batch.cues));
   const auto rgb_log = regression + renderer_gate_ * renderer_->forward(input);
   if (!has_mask_net()) return {rgb_log, CoverageOnlyLogit(batch.coverage)};
@@ -185,7 +189,7 @@ std::vector<torch::Tensor> DnlModelImpl::gates() const {
 }
 
 Losses DnlModelImpl::Loss(const ModelOutput& output, const Batch& batch_in, double mask_loss_weight,
-                          double saturation_level) const {
+                          double saturation_level, double clip_overshoot) const {
   batch_in.Check(/*need_targets=*/true);
   const Batch batch = batch_in.To(device_);
   const auto& matte = batch.target_matte;
@@ -194,7 +198,10 @@ Losses DnlModelImpl::Loss(const ModelOutput& output, const Batch& batch_in, doub
   // mean is over the matte's area (at least one pixel).
   auto difference = output.rgb_log - target_log;
   if (saturation_level > 0) {
-    difference = torch::where(batch.target_rgb >= saturation_level, difference.clamp_max(0.0), difference);
+    RELIT_REQUIRE(clip_overshoot >= 1, "clip_overshoot must be >= 1, got ", clip_overshoot);
+    const auto below_bound =
+        clip_overshoot > 1 ? output.rgb_log - encoding_.Encode(batch.target_rgb * clip_overshoot) : difference;
+    difference = torch::where(batch.target_rgb >= saturation_level, below_bound.clamp_max(0.0), difference);
   }
   const auto rgb = (matte * difference.abs()).sum() / (matte.sum() * 3.0).clamp_min(1.0);
   // Without a mask network the alpha is the coverage: nothing to learn.
@@ -225,7 +232,13 @@ torch::Tensor DnlModelImpl::Render(const Batch& batch) {
     output = Forward(batch);
   }
   const auto alpha = torch::sigmoid(output.mask_logit);
-  return torch::cat({encoding_.Decode(output.rgb_log) * alpha, alpha}, 1);
+  // The residual variant's radiance is premultiplied already: its cue
+  // regression carries the coverage (Forward) and it trains on frames whose
+  // silhouette pixels are partly background. Times alpha again would darken
+  // every silhouette pixel by its coverage.
+  const auto premultiply =
+      options_.residual() ? (batch.coverage.to(alpha.options()) > 0).to(alpha.dtype()) : alpha;
+  return torch::cat({encoding_.Decode(output.rgb_log) * premultiply, alpha}, 1);
 }
 
 Trainer::Trainer(const ModelOptions& model_options, const TrainOptions& train_options)
@@ -275,11 +288,16 @@ Losses Trainer::Step(const Batch& batch) {
   optimizer_->zero_grad();
   const ModelOutput output = model_->Forward(crop);
   const Losses losses =
-      model_->Loss(output, crop, train_options_.mask_loss_weight, saturation_level_);
+      model_->Loss(output, crop, train_options_.mask_loss_weight, saturation_level_, clip_overshoot_);
   losses.total.backward();
   optimizer_->step();
   ++step_;
   return {losses.total.detach(), losses.rgb.detach(), losses.mask.detach()};
+}
+
+void Trainer::set_clip_overshoot(double factor) {
+  RELIT_REQUIRE(factor >= 1, "clip_overshoot must be >= 1, got ", factor);
+  clip_overshoot_ = factor;
 }
 
 torch::Device ResolveDevice(const std::string& name) {

@@ -95,11 +95,14 @@ class DnlModelImpl : public torch::nn::Module {
   ModelOutput Forward(const Batch& batch);
   // `saturation_level` > 0: target channels at or above it were clipped by
   // the video and only bound the radiance from below (no loss where the
-  // output is brighter), as in the cue fit (CueFitOptions).
+  // output is brighter), as in the cue fit (CueFitOptions). The bound is
+  // the reading x `clip_overshoot` (>= 1), the lift the warm-start fit used
+  // (CueFitStats::clip_overshoot), so the training keeps what the fit lifted.
   Losses Loss(const ModelOutput& output, const Batch& batch, double mask_loss_weight = 1.0,
-              double saturation_level = 0) const;
-  // Premultiplied linear RGBA [B, 4, H, W]: decoded RGB x alpha, alpha =
-  // sigmoid(mask logit). No gradients. With object_window_margin_px > 0 the
+              double saturation_level = 0, double clip_overshoot = 1) const;
+  // Premultiplied linear RGBA [B, 4, H, W]: alpha = sigmoid(mask logit);
+  // RGB = decoded RGB x alpha (dnl), or the decoded RGB itself where the
+  // proxy covers the pixel (residual: its cues carry the coverage). No gradients. With object_window_margin_px > 0 the
   // networks see only the object's window, as in training; outside it the
   // image is empty.
   torch::Tensor Render(const Batch& batch);
@@ -149,6 +152,9 @@ class Trainer {
   // one-sided loss there, DnlModelImpl::Loss). The train stage sets it from
   // train.cue_fit.saturation_level; 0 (augmentation's rendered targets).
   void set_saturation_level(double level) { saturation_level_ = level; }
+  // >= 1: clipped targets bound the output from below at reading x factor.
+  void set_clip_overshoot(double factor);
+  double clip_overshoot() const { return clip_overshoot_; }
 
  private:
   TrainOptions train_options_;
@@ -157,6 +163,7 @@ class Trainer {
   at::Generator generator_;
   int64_t step_ = 0;
   double saturation_level_ = 0;
+  double clip_overshoot_ = 1;
 };
 
 // "cpu", "cuda" (Error when CUDA is not available) or "auto".

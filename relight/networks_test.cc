@@ -191,6 +191,25 @@ TEST(DnlModelTest, LossIsOneSidedOnClippedTargets) {
   EXPECT_NEAR(model->Loss(out, batch, 1.0, 0.9).rgb.item<double>(), 0.3, 1e-5);
 }
 
+// With the cue fit's lift, the bound is the reading x factor: an output
+// between the reading and the lifted bound now costs, one above it does not.
+TEST(DnlModelTest, ClippedTargetsBoundTheOutputAtTheLiftedReading) {
+  const auto material = testing::SyntheticMaterial(3);
+  Batch batch = testing::SyntheticFrame(material, 8, 0, 4);
+  batch.target_matte = torch::ones_like(batch.target_matte);
+  batch.target_rgb = torch::full_like(batch.target_rgb, 1.0);  // every channel clipped
+  DnlModel model(testing::TinyModelOptions());
+  const auto lifted_log = model->encoding().Encode(batch.target_rgb * 1.3);
+  ModelOutput out;
+  out.mask_logit = torch::zeros({1, 1, 8, 8});
+  out.rgb_log = lifted_log - 0.1;  // above the reading, below the lifted bound
+  EXPECT_NEAR(model->Loss(out, batch, 1.0, 0.9, 1.0).rgb.item<double>(), 0.0, 1e-7);
+  EXPECT_NEAR(model->Loss(out, batch, 1.0, 0.9, 1.3).rgb.item<double>(), 0.1, 1e-5);
+  out.rgb_log = lifted_log + 0.1;
+  EXPECT_NEAR(model->Loss(out, batch, 1.0, 0.9, 1.3).rgb.item<double>(), 0.0, 1e-7);
+  EXPECT_THROW(model->Loss(out, batch, 1.0, 0.9, 0.5), Error);
+}
+
 TEST(CropTest, CropsEveryPerPixelTensorConsistently) {
   const int64_t h = 12, w = 16;
   const auto rows = torch::arange(h, torch::kFloat).view({1, 1, h, 1}).expand({2, 1, h, w});

@@ -133,7 +133,13 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
     record.Set("warm_start", fit);
     spdlog::info("train: partition {}: {} cue regression fitted on {} pixels ({} of {} texels seen)", partition,
                  model_options.cue_fit, start.stats.pixels, start.stats.texels_seen, start.texels);
+    // The loss bounds clipped targets where the fit lifted them: at the
+    // readings alone the network would pull the lifted texels back down.
+    if (model_options.cue_fit == "smooth") trainer->set_clip_overshoot(start.stats.clip_overshoot);
+  } else if (fresh && cue_fit.clip_overshoot >= 1) {
+    trainer->set_clip_overshoot(cue_fit.clip_overshoot);
   }
+  record.Set("clip_overshoot", trainer->clip_overshoot());
 
   FrameOrder order(static_cast<int>(frames.size()), options.optimizer.seed);
   TrainLoopSettings settings;
