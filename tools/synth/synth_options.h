@@ -91,6 +91,7 @@ struct SynthOptions {
   double elevation_min_deg = 15.0;
   double elevation_max_deg = 70.0;
   double view_turns = 1.0;           // azimuth revolutions of phone V over its video
+  int elevation_bands = 1;           // phone V's rings, lowest first (view_turns / bands turns each)
   double light_speed_ratio = 3.0;    // phone L's azimuth rate / phone V's
   double roll_max_deg = 10.0;
   double jitter_m = 0.0015;

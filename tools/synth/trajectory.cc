@@ -1,5 +1,6 @@
 #include "tools/synth/trajectory.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/Geometry>
@@ -38,6 +39,10 @@ void HandheldPathParams::Check() const {
                 "camera elevation range must lie in the upper hemisphere (0, 86 deg), got [",
                 elevation_min_rad, ", ", elevation_max_rad, "] rad");
   RELIT_REQUIRE(drift_period_s > 0, "drift period must be positive, got ", drift_period_s, " s");
+  RELIT_REQUIRE(elevation_bands >= 1 && elevation_bands <= 8, "elevation bands must be in [1, 8], got ",
+                elevation_bands);
+  RELIT_REQUIRE(elevation_bands == 1 || band_period_s > 0,
+                "more than one elevation band needs a positive band period, got ", band_period_s, " s");
   RELIT_REQUIRE(roll_max_rad >= 0 && roll_max_rad < 1.0, "roll_max must be in [0, 1) rad, got ",
                 roll_max_rad);
   RELIT_REQUIRE(jitter_m >= 0 && jitter_m < 0.05, "jitter must be in [0, 0.05) m, got ", jitter_m);
@@ -99,8 +104,24 @@ double HandheldPath::AzimuthRad(double t_s) const {
 }
 
 double HandheldPath::ElevationRad(double t_s) const {
-  const double mid = 0.5 * (params_.elevation_min_rad + params_.elevation_max_rad);
-  const double half = 0.5 * (params_.elevation_max_rad - params_.elevation_min_rad);
+  const int bands = params_.elevation_bands;
+  const double band_rad = (params_.elevation_max_rad - params_.elevation_min_rad) / bands;
+  // Which band, as a continuous index: steps of 1 at each band's end, each
+  // a smoothstep over a fifth of a band period (the hand rising to the
+  // next ring), clamped to the first and last band outside the video.
+  double band = 0;
+  if (bands > 1) {
+    const double u = t_s / params_.band_period_s;
+    constexpr double kRise = 0.2;
+    for (int k = 1; k < bands; ++k) {
+      const double x = std::clamp((u - k) / kRise + 0.5, 0.0, 1.0);
+      band += x * x * (3 - 2 * x);
+    }
+  }
+  // Within a band the drift keeps a tenth of the band's width clear of its
+  // edges, so neighbouring bands do not blur into one.
+  const double mid = params_.elevation_min_rad + (band + 0.5) * band_rad;
+  const double half = (bands > 1 ? 0.4 : 0.5) * band_rad;
   return mid + half * elevation_.Eval(t_s);
 }
 

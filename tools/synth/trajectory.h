@@ -28,6 +28,13 @@ struct HandheldPathParams {
   double azimuth_rate_rev_per_s = 0.05;
   // Period of the slow drift of elevation/distance/roll, seconds.
   double drift_period_s = 10.0;
+  // Elevation bands, lowest first, as a capture guide asks for (one ring
+  // low, one high): the elevation range splits into this many equal bands
+  // and the phone spends band_period_s in each, drifting only within it,
+  // then rises to the next over a fifth of that time. 1: one drift over
+  // the whole range.
+  int elevation_bands = 1;
+  double band_period_s = 0;  // > 0 with more than one band
   double roll_max_rad = 0.17;     // |roll| about the optical axis stays below this
   double jitter_m = 0.0015;       // hand-shake amplitude, position
   double jitter_rad = 0.005;      // hand-shake amplitude, orientation

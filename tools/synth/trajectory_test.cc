@@ -58,6 +58,31 @@ TEST(Trajectory, IsSmooth) {
   }
 }
 
+// Two rings, each a whole turn: every azimuth is filmed from both the lower
+// and the upper half of the elevation range, and the rise between them is
+// smooth and stays within the range.
+TEST(Trajectory, ElevationBandsFilmEveryAzimuthLowAndHigh) {
+  HandheldPathParams p = Params();
+  p.azimuth_rate_rev_per_s = 2.0 / 10.0;  // two turns in 10 s
+  p.elevation_bands = 2;
+  p.band_period_s = 5.0;
+  const double middle = 0.5 * (p.elevation_min_rad + p.elevation_max_rad);
+  for (uint64_t seed = 0; seed < 10; ++seed) {
+    const HandheldPath path(p, seed);
+    for (double t = 0; t < 10; t += 0.05) {
+      const double elevation = path.ElevationRad(t);
+      EXPECT_GE(elevation, p.elevation_min_rad - 1e-9) << "seed " << seed << " t " << t;
+      EXPECT_LE(elevation, p.elevation_max_rad + 1e-9) << "seed " << seed << " t " << t;
+      // Away from the rise (a fifth of a band around t = 5 s): in its ring.
+      if (t < 4.5) EXPECT_LT(elevation, middle) << "seed " << seed << " t " << t;
+      if (t > 5.5) EXPECT_GT(elevation, middle) << "seed " << seed << " t " << t;
+      EXPECT_LT(std::abs(path.ElevationRad(t + 1.0 / 30) - elevation), 0.04) << "seed " << seed << " t " << t;
+    }
+  }
+  p.band_period_s = 0;
+  EXPECT_THROW(p.Check(), Error);
+}
+
 TEST(Trajectory, AzimuthAdvancesMonotonically) {
   const HandheldPath path(Params(), 5);
   for (double t = 0; t < 20; t += 0.01) EXPECT_GT(path.AzimuthRad(t + 0.01), path.AzimuthRad(t));
