@@ -173,13 +173,19 @@ TEST(DnlModelTest, LossIsMaskedL1InLogSpacePlusBceWithLogits) {
   EXPECT_NEAR(model->Loss(out, changed).rgb.item<double>(), rgb, 1e-5);
 }
 
+// An 8 x 8 frame whose target reads 1 in every channel and pixel: clipped
+// at a saturation level of 0.9.
+Batch AllClippedFrame() {
+  Batch batch = testing::SyntheticFrame(testing::SyntheticMaterial(3), 8, 0, 4);
+  batch.target_matte = torch::ones_like(batch.target_matte);
+  batch.target_rgb = torch::full_like(batch.target_rgb, 1.0);
+  return batch;
+}
+
 // A clipped target channel only bounds the output from below: an output
 // brighter than it costs nothing, a darker one costs as before.
 TEST(DnlModelTest, LossIsOneSidedOnClippedTargets) {
-  const auto material = testing::SyntheticMaterial(3);
-  Batch batch = testing::SyntheticFrame(material, 8, 0, 4);
-  batch.target_matte = torch::ones_like(batch.target_matte);
-  batch.target_rgb = torch::full_like(batch.target_rgb, 1.0);  // every channel clipped
+  const Batch batch = AllClippedFrame();
   DnlModel model(testing::TinyModelOptions());
   const auto target_log = model->encoding().Encode(batch.target_rgb);
   ModelOutput out;
@@ -194,10 +200,7 @@ TEST(DnlModelTest, LossIsOneSidedOnClippedTargets) {
 // With the cue fit's lift, the bound is the reading x factor: an output
 // between the reading and the lifted bound now costs, one above it does not.
 TEST(DnlModelTest, ClippedTargetsBoundTheOutputAtTheLiftedReading) {
-  const auto material = testing::SyntheticMaterial(3);
-  Batch batch = testing::SyntheticFrame(material, 8, 0, 4);
-  batch.target_matte = torch::ones_like(batch.target_matte);
-  batch.target_rgb = torch::full_like(batch.target_rgb, 1.0);  // every channel clipped
+  const Batch batch = AllClippedFrame();
   DnlModel model(testing::TinyModelOptions());
   const auto lifted_log = model->encoding().Encode(batch.target_rgb * 1.3);
   ModelOutput out;

@@ -51,13 +51,19 @@ TrainStageOptions SmallTraining(int steps) {
 }
 
 // Pooled metrics of `predict(cue frame)` against the plan's frames `indices`.
+// `binary_matte`: the matte thresholded at 0.5, so that the reference is
+// the captured pixels themselves there (ScoreModelOnCapturedPixels).
 ImageMetrics ScoreFrames(const std::string& dir, const Plan& plan, const std::vector<int>& indices,
-                         const std::function<Image(const Image&)>& predict) {
+                         const std::function<Image(const Image&)>& predict, bool binary_matte = false) {
   std::vector<ImageMetrics> metrics;
   for (int index : indices) {
     const PlanFrame& f = plan.frames[index];
-    metrics.push_back(CompareToReference(predict(ReadCueFrame(dir + "/" + f.cues)), ReadImage(dir + "/" + f.image),
-                                         ReadImage(dir + "/" + f.matte)));
+    Image matte = ReadImage(dir + "/" + f.matte);
+    if (binary_matte) {
+      for (float& a : matte.data()) a = a >= 0.5f ? 1.0f : 0.0f;
+    }
+    metrics.push_back(
+        CompareToReference(predict(ReadCueFrame(dir + "/" + f.cues)), ReadImage(dir + "/" + f.image), matte));
   }
   return PoolMetrics(metrics);
 }
@@ -73,15 +79,8 @@ ImageMetrics ScoreModel(const std::string& dir, const Plan& plan, const std::vec
 // reference for straight truth colours).
 ImageMetrics ScoreModelOnCapturedPixels(const std::string& dir, const Plan& plan, const std::vector<int>& indices,
                                         DnlModel& model) {
-  std::vector<ImageMetrics> metrics;
-  for (int index : indices) {
-    const PlanFrame& f = plan.frames[index];
-    Image inside = ReadImage(dir + "/" + f.matte);
-    for (float& a : inside.data()) a = a >= 0.5f ? 1.0f : 0.0f;
-    metrics.push_back(CompareToReference(RenderFrame(model, CueFrameToBatch(ReadCueFrame(dir + "/" + f.cues))),
-                                         ReadImage(dir + "/" + f.image), inside));
-  }
-  return PoolMetrics(metrics);
+  return ScoreFrames(
+      dir, plan, indices, [&](const Image& cues) { return RenderFrame(model, CueFrameToBatch(cues)); }, true);
 }
 
 // The cues-only baseline (per-texel least squares of the 5 cues) fitted on

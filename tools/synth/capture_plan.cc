@@ -35,8 +35,10 @@ std::string Numbered(const std::string& prefix, int i) {
 }
 
 HandheldPathParams PathParams(const SynthOptions& o, const SynthScene& scene, double turns,
-                              double duration_s, double speed) {
+                              double duration_s, double speed, int elevation_bands = 1) {
   HandheldPathParams p;
+  p.elevation_bands = elevation_bands;
+  p.band_period_s = duration_s / elevation_bands;
   p.target_world = scene.target_world;
   p.distance_min_m = o.distance_min_m;
   p.distance_max_m = o.distance_max_m;
@@ -200,14 +202,11 @@ CapturePlan MakeCapturePlan(const SynthOptions& o, const SynthScene& scene) {
   // Paths. Phone L circles light_speed_ratio times faster, in a random direction.
   uint64_t direction_state = SubSeed(o.seed, kLightDirection);
   const double light_sign = UniformFromState(&direction_state) < 0.5 ? -1.0 : 1.0;
-  plan.view_path = PathParams(o, scene, o.view_turns, duration, 1.0);
-  plan.view_path.elevation_bands = o.elevation_bands;
-  plan.view_path.band_period_s = duration / o.elevation_bands;
+  plan.view_path = PathParams(o, scene, o.view_turns, duration, 1.0, o.elevation_bands);
   plan.light_path = PathParams(o, scene, light_sign * o.light_speed_ratio * o.view_turns, duration,
                                std::max(1.0, o.light_speed_ratio));
-  plan.geometry_path = PathParams(o, scene, std::max(1.0, std::abs(o.view_turns)), duration, 1.0);
-  plan.geometry_path.elevation_bands = o.elevation_bands;
-  plan.geometry_path.band_period_s = duration / o.elevation_bands;
+  plan.geometry_path =
+      PathParams(o, scene, std::max(1.0, std::abs(o.view_turns)), duration, 1.0, o.elevation_bands);
   const HandheldPath view_path(plan.view_path, SubSeed(o.seed, kViewPath));
   const HandheldPath light_path(plan.light_path, SubSeed(o.seed, kLightPath));
   const RecordingParams view_recording{o.frames_per_video, static_cast<double>(o.fps), o.view_audio_rate_hz,
