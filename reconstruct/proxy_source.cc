@@ -48,6 +48,7 @@ struct DensePoints {
   // Per frame, the depths other frames confirm (FuseDepthMaps), when asked
   // for: the hull carves with them and the refinement after cleanup trusts them.
   std::vector<cv::Mat> consistent_depths;
+  std::vector<cv::Mat> grays;  // the frames the depth maps are of (CV_8U)
 };
 
 // Depth maps of every frame, then multi-view consistency and fusion.
@@ -164,6 +165,9 @@ DensePoints DenseDepthPoints(const fs::path& workspace, const CamerasFile& camer
     frame_reports.push_back(fr);
   }
   result.pixel_footprint_m = Median(std::move(footprints));
+  if (want_consistent_depths) {
+    for (DepthView& view : views) result.grays.push_back(std::move(view.gray));
+  }
   (*report)["frames"] = frame_reports;
   (*report)["fused_points"] = result.points.size();
   spdlog::info("dense: {} consistent depth points from {} frames ({} without any)", result.points.size(), n,
@@ -374,6 +378,7 @@ render::TriangleMesh BuildProxyFromImages(const fs::path& workspace, const Camer
     for (const CalibratedFrame* f : frames) evidence->names.push_back(f->name);
     evidence->cameras = camera_list;
     evidence->depths = std::move(consistent);
+    evidence->grays = std::move(dense.grays);
   }
   (*report)["raw_faces"] = mesh.triangles.size();
   spdlog::info("proxy: {} surface with {} faces", method, mesh.triangles.size());

@@ -28,6 +28,7 @@
 #include "reconstruct/mesh_cleanup.h"
 #include "reconstruct/proxy_normals.h"
 #include "reconstruct/proxy_source.h"
+#include "reconstruct/surface_photo_refine.h"
 #include "reconstruct/trimap.h"
 #include "reconstruct/uv_atlas.h"
 
@@ -94,6 +95,18 @@ render::TriangleMesh BuildProxy(const fs::path& workspace, const CamerasFile& ca
         RemoveSelfIntersections(&proxy, options.cleanup.self_intersection_rounds);
   }
   (*report)["refine"] = refine_report.ToJson();
+  const SurfacePhotoOptions& photometric = options.refine.photometric;
+  if (photometric.enabled && photometric.rounds > 0) {
+    auto photo_timer = record.Time("refine_photometric");
+    SurfacePhotoReport photo_report;
+    proxy = RefineSurfacePhotometric(proxy, evidence.cameras, evidence.grays, photometric,
+                                     options.cleanup.crop_margin_m, &photo_report);
+    if (options.cleanup.remove_self_intersections) {
+      photo_report.self_intersection_faces_replaced =
+          RemoveSelfIntersections(&proxy, options.cleanup.self_intersection_rounds);
+    }
+    (*report)["refine_photometric"] = photo_report.ToJson();
+  }
   return proxy;
 }
 

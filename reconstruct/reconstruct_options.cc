@@ -143,6 +143,18 @@ void AtlasOptions::Check() const {
                 gutter_px);
 }
 
+RELIT_OPTION_FIELDS(SurfacePhotoOptions,
+    .Add("enabled", &S::enabled, "search each refined vertex along its normal for the most photo-consistent offset")
+    .Add("rounds", &S::rounds, 0, 20, "search rounds, each over half the previous range")
+    .Add("search_px", &S::search_px, 0.1, 100.0, "first round's range, +/- pixel footprints along the normal")
+    .Add("steps", &S::steps, 1, 100, "offsets tried on each side")
+    .Add("patch_radius", &S::patch_radius, 1, 10, "tangent-plane patch of (2r+1)^2 samples, a footprint apart")
+    .Add("max_views", &S::max_views, 2, 100, "frames compared per vertex: the most frontal, then each the farthest in angle from those picked")
+    .Add("min_facing_cosine", &S::min_facing_cosine, 0.0, 1.0, "more grazing frames do not vote")
+    .Add("min_texture", &S::min_texture, 0.0, 255.0, "patch grey std below this: the vertex takes no vote")
+    .Add("min_score", &S::min_score, -1.0, 1.0, "best mean ZNCC below this: the vertex takes no vote")
+    .Add("smoothness", &S::smoothness, 0.0, 1e6, "neighbour coupling of the offsets (a sure vertex weighs 1)"))
+
 RELIT_OPTION_FIELDS(RefineOptions,
     .Add("enabled", &S::enabled, "refine the cleaned proxy against the dense path's depth maps")
     .Add("iterations", &S::iterations, 0, 10000, "refinement iterations")
@@ -155,7 +167,8 @@ RELIT_OPTION_FIELDS(RefineOptions,
     .Add("data_weight", &S::data_weight, 0.0, 1.0, "share of the offset to the seen surface moved per iteration")
     .Add("smoothing", &S::smoothing, 0.0, 1.0, "Taubin lambda per iteration (mu = -1.02 lambda; 0 = none)")
     .Add("final_smoothing_iterations", &S::final_smoothing_iterations, 0, 10000,
-         "Taubin passes (lambda = smoothing) after the last iteration, no data term"))
+         "Taubin passes (lambda = smoothing) after the last iteration, no data term")
+    .Section("photometric", &S::photometric))
 
 RELIT_OPTION_FIELDS(TrimapOptions,
     .Add("band_px", &S::band_px, 0, 1000, "unknown band half width, pixels (0 = automatic, below)")

@@ -185,6 +185,23 @@ struct AtlasOptions {
   void Check() const;  // across fields: gutter well below the resolution
 };
 
+// Photometric refinement of the refined proxy (surface_photo_refine.h): each
+// vertex searched along its normal for the offset where a tangent-plane
+// patch looks alike in the frames that see it. YAML: refine.photometric.
+struct SurfacePhotoOptions {
+  bool enabled = true;
+  int rounds = 3;                 // each round halves the search
+  double search_px = 3.0;         // first round: +/- this many pixel footprints along the normal
+  int steps = 6;                  // offsets tried on each side of the current surface
+  int patch_radius = 4;           // (2r+1)^2 tangent-plane samples, one pixel footprint apart
+  int max_views = 10;             // views compared: the most frontal, then the widest spread
+  double min_facing_cosine = 0.5; // views more grazing than this do not vote
+  double min_texture = 3.0;       // patch contrast (grey std) below this: no vote
+  double min_score = 0.7;         // best mean ZNCC below this: no vote (0.5-0.7: votes half as right)
+  double smoothness = 2.0;        // neighbour coupling of the offsets (a sure vertex weighs 1)
+  static const OptionFields<SurfacePhotoOptions>& Fields();
+};
+
 // Refinement of the cleaned proxy against the dense path's depth maps
 // (visibility_refine.h); skipped for user meshes and the sparse path.
 struct RefineOptions {
@@ -208,6 +225,7 @@ struct RefineOptions {
   // data term: depth noise leaves the surface lumpy (demo: normals 21 deg
   // from the truth's, median), and the cues shade every lump.
   int final_smoothing_iterations = 20;
+  SurfacePhotoOptions photometric;      // then the photometric search (needs the frames)
   static const OptionFields<RefineOptions>& Fields();
 };
 

@@ -89,11 +89,25 @@ void TaubinPass(const std::vector<std::vector<int>>& rings, double lambda, std::
   SmoothStep(rings, static_cast<float>(-1.02 * lambda), positions);
 }
 
+}  // namespace
+
 void KeepAboveFloor(double floor_z_m, std::vector<Eigen::Vector3f>* positions) {
   for (Eigen::Vector3f& p : *positions) p.z() = std::max(p.z(), static_cast<float>(floor_z_m));
 }
 
-}  // namespace
+std::vector<std::vector<int>> VertexRings(const render::TriangleMesh& mesh) {
+  std::vector<std::vector<int>> rings(mesh.positions.size());
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    for (int k = 0; k < 3; ++k) {
+      for (int j = 1; j < 3; ++j) rings[t[k]].push_back(t[(k + j) % 3]);
+    }
+  }
+  for (std::vector<int>& ring : rings) {
+    std::sort(ring.begin(), ring.end());
+    ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
+  }
+  return rings;
+}
 
 // The JSON keys are the members' names.
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(RefineReport, iterations, step_m, vertices, carved_vertices_first,
@@ -134,16 +148,7 @@ render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const
   RELIT_REQUIRE(!footprints.empty(), "refine: no depth maps");
   const double full_step = options.step_m > 0 ? options.step_m : 2.0 * Median(std::move(footprints));
 
-  std::vector<std::vector<int>> rings(n);
-  for (const Eigen::Vector3i& t : welded.triangles) {
-    for (int k = 0; k < 3; ++k) {
-      for (int j = 1; j < 3; ++j) rings[t[k]].push_back(t[(k + j) % 3]);
-    }
-  }
-  for (std::vector<int>& ring : rings) {
-    std::sort(ring.begin(), ring.end());
-    ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
-  }
+  const std::vector<std::vector<int>> rings = VertexRings(welded);
 
   report->step_m = full_step;
   report->vertices = static_cast<int>(n);

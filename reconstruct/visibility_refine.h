@@ -36,6 +36,7 @@ struct DepthEvidence {
   std::vector<std::string> names;  // frame names, for messages
   std::vector<Camera> cameras;
   std::vector<cv::Mat> depths;
+  std::vector<cv::Mat> grays;  // the frames, CV_8U (the photometric refinement's input)
   bool empty() const { return depths.empty(); }
 };
 
@@ -56,6 +57,12 @@ struct RefineReport {
 
 // Moves the vertices of a closed, outward-oriented mesh (topology unchanged),
 // never below z = floor_z_m (the crop plane above the board).
+// Each vertex's one-ring neighbours (sorted, unique).
+std::vector<std::vector<int>> VertexRings(const render::TriangleMesh& mesh);
+
+// Clamps every position to z >= floor_z_m.
+void KeepAboveFloor(double floor_z_m, std::vector<Eigen::Vector3f>* positions);
+
 render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const DepthEvidence& evidence,
                                          const RefineOptions& options, double floor_z_m, RefineReport* report);
 

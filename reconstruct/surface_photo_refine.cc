@@ -1,0 +1,299 @@
+#include "reconstruct/surface_photo_refine.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <utility>
+
+#include <spdlog/spdlog.h>
+#include <tbb/parallel_for.h>
+
+#include "core/error.h"
+#include "core/median.h"
+#include "core/progress.h"
+#include "core/render/scene.h"
+#include "reconstruct/mesh_cleanup.h"
+#include "reconstruct/visibility_refine.h"
+
+namespace relit::reconstruct {
+namespace {
+
+struct PhotoView {
+  const Camera* camera = nullptr;
+  Eigen::Vector3d centre;
+  cv::Mat gray;  // CV_32F
+};
+
+// What the photometric search says about one vertex: an offset along the
+// normal and how much to trust it (0 = no vote).
+struct OffsetVote {
+  double offset_m = 0;
+  double weight = 0;
+};
+
+// Bilinear grey value; false outside the image.
+bool SampleGray(const cv::Mat& gray, const Eigen::Vector2d& pixel, float* value) {
+  const double x = pixel.x(), y = pixel.y();
+  if (!(x >= 0 && y >= 0 && x < gray.cols - 1 && y < gray.rows - 1)) return false;
+  const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
+  const float fx = static_cast<float>(x - x0), fy = static_cast<float>(y - y0);
+  const float* row0 = gray.ptr<float>(y0) + x0;
+  const float* row1 = gray.ptr<float>(y0 + 1) + x0;
+  *value = (1 - fy) * ((1 - fx) * row0[0] + fx * row0[1]) + fy * ((1 - fx) * row1[0] + fx * row1[1]);
+  return true;
+}
+
+// Zero mean, unit norm; false for a flat patch.
+bool Normalise(std::vector<float>* patch) {
+  double mean = 0;
+  for (float v : *patch) mean += v;
+  mean /= static_cast<double>(patch->size());
+  double norm = 0;
+  for (float& v : *patch) {
+    v -= static_cast<float>(mean);
+    norm += static_cast<double>(v) * v;
+  }
+  if (norm < 1e-6) return false;
+  const float scale = static_cast<float>(1.0 / std::sqrt(norm));
+  for (float& v : *patch) v *= scale;
+  return true;
+}
+
+double GreyStd(const std::vector<float>& patch) {
+  double sum = 0, sum2 = 0;
+  for (float v : patch) {
+    sum += v;
+    sum2 += static_cast<double>(v) * v;
+  }
+  const double n = static_cast<double>(patch.size());
+  return std::sqrt(std::max(0.0, sum2 / n - (sum / n) * (sum / n)));
+}
+
+// The views that see p from the front, unoccluded, most frontal first.
+std::vector<int> VotingViews(const Eigen::Vector3d& p, const Eigen::Vector3d& normal, const std::vector<PhotoView>& views,
+                             const render::Scene& scene, double lift_m, const SurfacePhotoOptions& options) {
+  std::vector<std::pair<double, int>> facing;
+  const Eigen::Vector3d origin = p + lift_m * normal;  // off the surface the ray starts on
+  for (size_t k = 0; k < views.size(); ++k) {
+    const Eigen::Vector3d to_camera = views[k].centre - origin;
+    const double distance = to_camera.norm();
+    const Eigen::Vector3d direction = to_camera / distance;
+    const double cosine = normal.dot(direction);
+    if (cosine < options.min_facing_cosine) continue;
+    Eigen::Vector2d pixel;
+    if (!views[k].camera->Project(p, &pixel)) continue;
+    if (scene.Occluded(origin.cast<float>(), direction.cast<float>(), 0.0f, static_cast<float>(distance))) continue;
+    facing.emplace_back(cosine, static_cast<int>(k));
+  }
+  std::sort(facing.begin(), facing.end(), std::greater<>());
+  // The most frontal view, then each time the view farthest in angle from
+  // those picked: neighbouring video frames see the patch from almost the
+  // same point, and a sub-pixel disagreement between them says nothing about
+  // depth (farthest-point sampling of the viewing directions).
+  std::vector<int> picked;
+  std::vector<Eigen::Vector3d> directions;
+  std::vector<double> nearest_cos(facing.size(), -2.0);
+  std::vector<bool> taken(facing.size(), false);
+  for (size_t next = 0; !facing.empty() && static_cast<int>(picked.size()) < options.max_views;) {
+    taken[next] = true;
+    const int k = facing[next].second;
+    picked.push_back(k);
+    const Eigen::Vector3d direction = (views[static_cast<size_t>(k)].centre - origin).normalized();
+    double farthest = 2.0;
+    bool found = false;
+    for (size_t i = 0; i < facing.size(); ++i) {
+      if (taken[i]) continue;
+      const Eigen::Vector3d d = (views[static_cast<size_t>(facing[i].second)].centre - origin).normalized();
+      nearest_cos[i] = std::max(nearest_cos[i], d.dot(direction));
+      if (nearest_cos[i] < farthest) {
+        farthest = nearest_cos[i];
+        next = i;
+        found = true;
+      }
+    }
+    if (!found) break;
+  }
+  return picked;
+}
+
+// Photo-consistency of normalised patches (one per view): each view's mean
+// ZNCC to the others, the better half of the views averaged (a view that
+// sees a shadow edge or an occluder there does not vote).
+double PatchAgreement(const std::vector<std::vector<float>>& patches) {
+  const size_t n = patches.size();
+  std::vector<double> mean_ncc(n, 0.0);
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t j = i + 1; j < n; ++j) {
+      double dot = 0;
+      for (size_t s = 0; s < patches[i].size(); ++s) dot += patches[i][s] * patches[j][s];
+      mean_ncc[i] += dot;
+      mean_ncc[j] += dot;
+    }
+  }
+  for (double& m : mean_ncc) m /= static_cast<double>(n - 1);
+  std::sort(mean_ncc.begin(), mean_ncc.end(), std::greater<>());
+  const size_t half = (n + 1) / 2;
+  double sum = 0;
+  for (size_t i = 0; i < half; ++i) sum += mean_ncc[i];
+  return sum / static_cast<double>(half);
+}
+
+// Sweeps offsets in [-search_m, search_m] along the normal.
+OffsetVote SearchVertex(const Eigen::Vector3d& p, const Eigen::Vector3d& normal, const std::vector<PhotoView>& views,
+                        const render::Scene& scene, double spacing_m, double search_m,
+                        const SurfacePhotoOptions& options) {
+  std::vector<int> voters = VotingViews(p, normal, views, scene, spacing_m, options);
+  if (voters.size() < 2) return {};
+  Eigen::Vector3d t1 = normal.unitOrthogonal(), t2 = normal.cross(t1);
+  const int r = options.patch_radius, steps = options.steps;
+  const size_t samples = static_cast<size_t>((2 * r + 1) * (2 * r + 1));
+  const double step_m = search_m / steps;
+  std::vector<double> scores(static_cast<size_t>(2 * steps + 1), -1.0);
+  std::vector<std::vector<float>> patches(voters.size(), std::vector<float>(samples));
+  for (int h = -steps; h <= steps; ++h) {
+    const Eigen::Vector3d centre = p + (h * step_m) * normal;
+    std::vector<std::vector<float>> usable;
+    for (size_t v = 0; v < voters.size(); ++v) {
+      const PhotoView& view = views[static_cast<size_t>(voters[v])];
+      bool inside = true;
+      size_t s = 0;
+      for (int b = -r; b <= r && inside; ++b) {
+        for (int a = -r; a <= r && inside; ++a, ++s) {
+          Eigen::Vector2d pixel;
+          inside = view.camera->Project(centre + spacing_m * (a * t1 + b * t2), &pixel) &&
+                   SampleGray(view.gray, pixel, &patches[v][s]);
+        }
+      }
+      if (!inside) continue;
+      // The most frontal view's patch at the current surface must show texture.
+      if (h == 0 && v == 0 && GreyStd(patches[v]) < options.min_texture) return {};
+      std::vector<float> patch = patches[v];
+      if (Normalise(&patch)) usable.push_back(std::move(patch));
+    }
+    if (usable.size() >= 2) scores[static_cast<size_t>(h + steps)] = PatchAgreement(usable);
+  }
+  const size_t best = static_cast<size_t>(std::max_element(scores.begin(), scores.end()) - scores.begin());
+  // An optimum at the edge of the search is not an optimum.
+  if (best == 0 || best + 1 == scores.size() || scores[best] < options.min_score) return {};
+  const double before = scores[best - 1], peak = scores[best], after = scores[best + 1];
+  const double curvature = before - 2 * peak + after;
+  const double sub_step = curvature < 0 ? std::clamp(0.5 * (before - after) / curvature, -0.5, 0.5) : 0.0;
+  OffsetVote vote;
+  vote.offset_m = (static_cast<double>(best) - steps + sub_step) * step_m;
+  vote.weight = peak;
+  return vote;
+}
+
+// Offsets that follow the votes where they are sure and their neighbours
+// elsewhere: argmin sum w (x - o)^2 + smoothness sum_edges (x_u - x_v)^2 +
+// a faint pull to 0 (a region without votes stays where it is), by
+// Gauss-Seidel sweeps.
+std::vector<double> SmoothOffsets(const std::vector<OffsetVote>& votes, const std::vector<std::vector<int>>& rings,
+                                  double smoothness) {
+  constexpr double kAnchor = 1e-3;
+  constexpr int kSweeps = 200;
+  std::vector<double> x(votes.size(), 0.0);
+  for (size_t v = 0; v < votes.size(); ++v) x[v] = votes[v].weight > 0 ? votes[v].offset_m : 0.0;
+  for (int sweep = 0; sweep < kSweeps; ++sweep) {
+    for (size_t v = 0; v < votes.size(); ++v) {
+      double numerator = votes[v].weight * votes[v].offset_m, denominator = votes[v].weight + kAnchor;
+      for (int u : rings[v]) {
+        numerator += smoothness * x[static_cast<size_t>(u)];
+        denominator += smoothness;
+      }
+      x[v] = numerator / denominator;
+    }
+  }
+  return x;
+}
+
+}  // namespace
+
+// The JSON keys are the members' names.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(SurfacePhotoReport, rounds, vertices, measured_vertices_first,
+                                   measured_vertices_last, search_m, patch_spacing_m, mean_move_m, max_move_m,
+                                   seconds, self_intersection_faces_replaced)
+
+nlohmann::json SurfacePhotoReport::ToJson() const { return *this; }
+
+render::TriangleMesh RefineSurfacePhotometric(const render::TriangleMesh& mesh, const std::vector<Camera>& cameras,
+                                              const std::vector<cv::Mat>& grays, const SurfacePhotoOptions& options,
+                                              double floor_z_m, SurfacePhotoReport* report) {
+  const auto start = std::chrono::steady_clock::now();
+  RELIT_REQUIRE(cameras.size() == grays.size(), "refine.photometric: ", cameras.size(), " cameras but ",
+                grays.size(), " frames");
+  RELIT_REQUIRE(!mesh.triangles.empty(), "refine.photometric: the proxy has no triangles");
+  std::vector<int> welded_index;
+  render::TriangleMesh welded = WeldEqualPositions(mesh, &welded_index);
+  std::vector<Eigen::Vector3f>& positions = welded.positions;
+  const size_t n = positions.size();
+  const std::vector<Eigen::Vector3f> original = positions;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3f& p : positions) centroid += p.cast<double>() / static_cast<double>(n);
+
+  std::vector<PhotoView> views(cameras.size());
+  std::vector<double> footprints;
+  for (size_t k = 0; k < views.size(); ++k) {
+    const Intrinsics& intrinsics = cameras[k].intrinsics();
+    RELIT_REQUIRE(grays[k].type() == CV_8UC1 && grays[k].cols == intrinsics.width && grays[k].rows == intrinsics.height,
+                  "refine.photometric: frame ", k, " does not match its camera (", intrinsics.width, "x",
+                  intrinsics.height, " grey expected)");
+    views[k].camera = &cameras[k];
+    views[k].centre = cameras[k].Center();
+    grays[k].convertTo(views[k].gray, CV_32F);
+    footprints.push_back((views[k].centre - centroid).norm() / intrinsics.fx);
+  }
+  RELIT_REQUIRE(!footprints.empty(), "refine.photometric: no frames");
+  const double spacing_m = Median(std::move(footprints));
+  const std::vector<std::vector<int>> rings = VertexRings(welded);
+  report->vertices = static_cast<int>(n);
+  report->search_m = options.search_px * spacing_m;
+  report->patch_spacing_m = spacing_m;
+
+  Progress progress("surface photometric refine", options.rounds);
+  std::vector<OffsetVote> votes(n);
+  for (int round = 0; round < options.rounds; ++round) {
+    const double search_m = report->search_m / std::pow(2.0, round);
+    welded.ComputeVertexNormals();
+    render::Scene scene;  // occlusion by the current surface
+    scene.AddObject(welded, render::Material::Lambert(render::Rgb(0.5f, 0.5f, 0.5f)), 0);
+    scene.Commit();
+    tbb::parallel_for(size_t(0), n, [&](size_t v) {
+      votes[v] = SearchVertex(positions[v].cast<double>(), welded.normals[v].cast<double>().normalized(), views, scene,
+                              spacing_m, search_m, options);
+    });
+    const int measured = static_cast<int>(std::count_if(votes.begin(), votes.end(), [](const OffsetVote& o) {
+      return o.weight > 0;
+    }));
+    const std::vector<double> offsets = SmoothOffsets(votes, rings, options.smoothness);
+    for (size_t v = 0; v < n; ++v) {
+      positions[v] += static_cast<float>(std::clamp(offsets[v], -search_m, search_m)) * welded.normals[v].normalized();
+    }
+    KeepAboveFloor(floor_z_m, &positions);
+    if (round == 0) report->measured_vertices_first = measured;
+    report->measured_vertices_last = measured;
+    report->rounds = round + 1;
+    spdlog::debug("surface photometric refine {}: {} of {} vertices measured within +/- {:.2f} mm", round, measured, n,
+                  1e3 * search_m);
+    progress.Advance();
+  }
+
+  render::TriangleMesh refined = mesh;
+  double move_sum = 0;
+  for (size_t v = 0; v < n; ++v) {
+    const double move = (positions[v] - original[v]).cast<double>().norm();
+    move_sum += move;
+    report->max_move_m = std::max(report->max_move_m, move);
+  }
+  for (size_t v = 0; v < mesh.positions.size(); ++v) refined.positions[v] = positions[welded_index[v]];
+  report->mean_move_m = n > 0 ? move_sum / static_cast<double>(n) : 0.0;
+  if (!refined.normals.empty()) refined.ComputeVertexNormals();
+  report->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  spdlog::info("surface photometric refine: {} rounds from +/- {:.2f} mm; {} of {} vertices measured at first, {} at last; "
+               "vertices moved {:.2f} mm on average (max {:.2f} mm)",
+               report->rounds, 1e3 * report->search_m, report->measured_vertices_first, n,
+               report->measured_vertices_last, 1e3 * report->mean_move_m, 1e3 * report->max_move_m);
+  return refined;
+}
+
+}  // namespace relit::reconstruct
