@@ -278,6 +278,13 @@ TEST_F(RelightStageTest, ContinuedTrainingReproducesTheUninterruptedRun) {
   ModelOptions other = SmallModel();
   other.ngf = 8;
   EXPECT_EQ(RunTrainStage(dir_, 0, other, options, false, record).resumed_from, 0);
+  // New cue frames under the same plan (a new proxy): not reused either.
+  options.steps = 20;
+  RunTrainStage(dir_, 0, SmallModel(), options, true, record);
+  const std::string first_cue = dir_ + "/" + ReadCuesFile(dir_ + "/relight/cues/cues.json").frames.front().file;
+  std::ofstream(first_cue, std::ios::app) << ' ';
+  options.steps = 40;
+  EXPECT_EQ(RunTrainStage(dir_, 0, SmallModel(), options, false, record).resumed_from, 0);
 }
 
 TEST_F(RelightStageTest, RenderWritesTurntablesFromTheTrainedPartition) {

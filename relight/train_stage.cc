@@ -38,6 +38,18 @@ std::string PartitionDirName(int partition) {
   return name;
 }
 
+namespace {
+
+// One hash of cues.json and every cue frame it lists (tens of MB: well under
+// a second).
+std::string HashCueFrames(const fs::path& root, const std::string& cues_path, const CuesFile& cues) {
+  uint64_t hash = HashFile(cues_path);
+  for (const CueFrameRecord& frame : cues.frames) hash = hash * 1099511628211ull ^ HashFile((root / frame.file).string());
+  return std::to_string(hash);
+}
+
+}  // namespace
+
 TrainStageResult RunTrainStage(const std::string& workspace, int partition, const ModelOptions& model_options_in,
                                const TrainStageOptions& options, bool restart, RunRecord& record) {
   CheckOptions(options, "train");
@@ -50,7 +62,8 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
   const PlanPartition& part = plan.partitions[partition];
   // Before anything is removed: a refused run leaves the trained partition alone.
   const std::string cues_path = (root / "relight" / "cues" / "cues.json").string();
-  const CueFormat rendered = ReadCuesFile(cues_path).format;
+  const CuesFile cues = ReadCuesFile(cues_path);
+  const CueFormat rendered = cues.format;
   RELIT_REQUIRE(rendered == model_options_in.format, cues_path, ": the cue frames hold ", rendered.Describe(),
                 " but the config asks for ", model_options_in.format.Describe(),
                 ": rerun `relit-relight cues` and `plan` with this config");
@@ -73,9 +86,12 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
   ModelOptions model_options = model_options_in;
   model_options.max_radiance = plan.max_radiance;
   // Everything that changes the trajectory; `steps` and the cadences do not.
+  // The cue frames count too: a new proxy (or calibration) renders new cues
+  // under the same plan, and a checkpoint trained on the old ones is stale.
   const json fingerprint = {{"model", OptionsToJson(model_options)},
                             {"optimizer", OptionsToJson(options.optimizer)},
-                            {"plan", HashFile(plan_path)}};
+                            {"plan", HashFile(plan_path)},
+                            {"cues", HashCueFrames(root, cues_path, cues)}};
   const fs::path fingerprint_path = dir / "fingerprint.json";
   std::unique_ptr<Trainer> trainer;
   bool fresh = false;
