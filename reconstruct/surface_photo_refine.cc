@@ -69,7 +69,8 @@ double GreyStd(const std::vector<float>& patch) {
   return std::sqrt(std::max(0.0, sum2 / n - (sum / n) * (sum / n)));
 }
 
-// The views that see p from the front, unoccluded, most frontal first.
+// Up to max_views views that see p from the front, unoccluded: the most
+// frontal first, then spread in angle (below).
 std::vector<int> VotingViews(const Eigen::Vector3d& p, const Eigen::Vector3d& normal, const std::vector<PhotoView>& views,
                              const render::Scene& scene, double lift_m, const SurfacePhotoOptions& options) {
   std::vector<std::pair<double, int>> facing;
@@ -142,9 +143,9 @@ double PatchAgreement(const std::vector<std::vector<float>>& patches) {
 OffsetVote SearchVertex(const Eigen::Vector3d& p, const Eigen::Vector3d& normal, const std::vector<PhotoView>& views,
                         const render::Scene& scene, double spacing_m, double search_m,
                         const SurfacePhotoOptions& options) {
-  std::vector<int> voters = VotingViews(p, normal, views, scene, spacing_m, options);
+  const std::vector<int> voters = VotingViews(p, normal, views, scene, spacing_m, options);
   if (voters.size() < 2) return {};
-  Eigen::Vector3d t1 = normal.unitOrthogonal(), t2 = normal.cross(t1);
+  const Eigen::Vector3d t1 = normal.unitOrthogonal(), t2 = normal.cross(t1);
   const int r = options.patch_radius, steps = options.steps;
   const size_t samples = static_cast<size_t>((2 * r + 1) * (2 * r + 1));
   const double step_m = search_m / steps;
