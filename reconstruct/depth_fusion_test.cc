@@ -19,10 +19,7 @@ constexpr double kRadius = 0.03;
 const Eigen::Vector3d kFloater(0.065, 0.0, 0.03);  // beside the sphere, above the board
 
 double HitSphere(const Eigen::Vector3d& origin, const Eigen::Vector3d& ray) {
-  const Eigen::Vector3d o = origin - kCentre;
-  const double b = o.dot(ray), c = o.squaredNorm() - kRadius * kRadius, disc = b * b - c;
-  if (disc < 0) return -1;
-  const double t = -b - std::sqrt(disc);
+  const double t = testing::RaySphere(origin, ray, kCentre, kRadius);
   return t > 0 ? t : -1;
 }
 

@@ -53,14 +53,8 @@ RenderedView Render(const Camera& camera, double gain, double offset, bool flat_
   for (int v = 0; v < k.height; ++v) {
     for (int u = 0; u < k.width; ++u) {
       const Eigen::Vector3d ray = camera.PixelToWorldRay(Eigen::Vector2d(u, v));
-      const Eigen::Vector3d oc = eye - kCentre;
-      const double b = oc.dot(ray), c = oc.squaredNorm() - kRadius * kRadius;
-      double t = -1;
-      bool sphere = false;
-      if (b * b - c > 0) {
-        t = -b - std::sqrt(b * b - c);
-        sphere = true;
-      }
+      double t = testing::RaySphere(eye, ray, kCentre, kRadius);
+      const bool sphere = t > 0;
       if (t <= 0 && ray.z() < 0) t = -eye.z() / ray.z();
       if (t <= 0) continue;
       const Eigen::Vector3d hit = eye + t * ray;

@@ -153,18 +153,16 @@ DensePoints DenseDepthPoints(const fs::path& workspace, const CamerasFile& camer
                                   want_consistent_depths ? &result.consistent_depths : nullptr,
                                   [&] { progress.Advance(); });
   }
-  std::vector<double> footprints;
   nlohmann::json frame_reports = nlohmann::json::array();
   for (size_t i = 0; i < n; ++i) {
     if (stats[i].consistent_px == 0) result.frames_without_points.push_back(frames[i]->name);
-    footprints.push_back((camera_list[i].Center() - centre).norm() / camera_list[i].intrinsics().fx);
     nlohmann::json fr = stats[i].ToJson();
     fr["frame"] = frames[i]->name;
     fr["neighbours"] = nlohmann::json::array();
     for (int j : neighbours[i]) fr["neighbours"].push_back(frames[j]->name);
     frame_reports.push_back(fr);
   }
-  result.pixel_footprint_m = Median(std::move(footprints));
+  result.pixel_footprint_m = MedianPixelFootprint(camera_list, centre);
   if (want_consistent_depths) {
     for (DepthView& view : views) result.grays.push_back(std::move(view.gray));
   }

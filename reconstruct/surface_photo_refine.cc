@@ -9,10 +9,9 @@
 #include <tbb/parallel_for.h>
 
 #include "core/error.h"
-#include "core/median.h"
 #include "core/progress.h"
+#include "core/run_record.h"
 #include "core/render/scene.h"
-#include "reconstruct/mesh_cleanup.h"
 #include "reconstruct/visibility_refine.h"
 
 namespace relit::reconstruct {
@@ -224,16 +223,12 @@ render::TriangleMesh RefineSurfacePhotometric(const render::TriangleMesh& mesh, 
   RELIT_REQUIRE(cameras.size() == grays.size(), "refine.photometric: ", cameras.size(), " cameras but ",
                 grays.size(), " frames");
   RELIT_REQUIRE(!mesh.triangles.empty(), "refine.photometric: the proxy has no triangles");
-  std::vector<int> welded_index;
-  render::TriangleMesh welded = WeldEqualPositions(mesh, &welded_index);
+  WeldedMesh weld(mesh);  // UV seams move as one
+  render::TriangleMesh& welded = weld.mesh;
   std::vector<Eigen::Vector3f>& positions = welded.positions;
   const size_t n = positions.size();
-  const std::vector<Eigen::Vector3f> original = positions;
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3f& p : positions) centroid += p.cast<double>() / static_cast<double>(n);
 
   std::vector<PhotoView> views(cameras.size());
-  std::vector<double> footprints;
   for (size_t k = 0; k < views.size(); ++k) {
     const Intrinsics& intrinsics = cameras[k].intrinsics();
     RELIT_REQUIRE(grays[k].type() == CV_8UC1 && grays[k].cols == intrinsics.width && grays[k].rows == intrinsics.height,
@@ -242,10 +237,9 @@ render::TriangleMesh RefineSurfacePhotometric(const render::TriangleMesh& mesh, 
     views[k].camera = &cameras[k];
     views[k].centre = cameras[k].Center();
     grays[k].convertTo(views[k].gray, CV_32F);
-    footprints.push_back((views[k].centre - centroid).norm() / intrinsics.fx);
   }
-  RELIT_REQUIRE(!footprints.empty(), "refine.photometric: no frames");
-  const double spacing_m = Median(std::move(footprints));
+  RELIT_REQUIRE(!views.empty(), "refine.photometric: no frames");
+  const double spacing_m = MedianPixelFootprint(cameras, weld.centroid);
   const std::vector<std::vector<int>> rings = VertexRings(welded);
   report->vertices = static_cast<int>(n);
   report->search_m = options.search_px * spacing_m;
@@ -279,17 +273,8 @@ render::TriangleMesh RefineSurfacePhotometric(const render::TriangleMesh& mesh, 
     progress.Advance();
   }
 
-  render::TriangleMesh refined = mesh;
-  double move_sum = 0;
-  for (size_t v = 0; v < n; ++v) {
-    const double move = (positions[v] - original[v]).cast<double>().norm();
-    move_sum += move;
-    report->max_move_m = std::max(report->max_move_m, move);
-  }
-  for (size_t v = 0; v < mesh.positions.size(); ++v) refined.positions[v] = positions[welded_index[v]];
-  report->mean_move_m = n > 0 ? move_sum / static_cast<double>(n) : 0.0;
-  if (!refined.normals.empty()) refined.ComputeVertexNormals();
-  report->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const render::TriangleMesh refined = weld.Unweld(mesh, &report->mean_move_m, &report->max_move_m);
+  report->seconds = SecondsSince(start);
   spdlog::info("surface photometric refine: {} rounds from +/- {:.2f} mm; {} of {} vertices measured at first, {} at last; "
                "vertices moved {:.2f} mm on average (max {:.2f} mm)",
                report->rounds, 1e3 * report->search_m, report->measured_vertices_first, n,

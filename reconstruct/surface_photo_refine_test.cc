@@ -46,11 +46,10 @@ cv::Mat RenderFrame(const Camera& camera, const Eigen::Vector3d& flash) {
   for (int v = 0; v < k.height; ++v) {
     for (int u = 0; u < k.width; ++u) {
       const Eigen::Vector3d ray = camera.PixelToWorldRay(Eigen::Vector2d(u, v));
-      const Eigen::Vector3d oc = eye - kCentre;
-      const double b = oc.dot(ray), c = oc.squaredNorm() - kRadius * kRadius;
+      const double t = testing::RaySphere(eye, ray, kCentre, kRadius);
       Eigen::Vector3d hit, normal;
-      if (b * b - c > 0) {
-        hit = eye + (-b - std::sqrt(b * b - c)) * ray;
+      if (t > 0) {
+        hit = eye + t * ray;
         normal = (hit - kCentre) / kRadius;
       } else if (ray.z() < 0) {
         hit = eye + (-eye.z() / ray.z()) * ray;

@@ -132,6 +132,13 @@ const TestWorkspace& SharedTestWorkspace(const std::string& name, int frames, in
   return shared.ws;
 }
 
+double RaySphere(const Eigen::Vector3d& origin, const Eigen::Vector3d& ray, const Eigen::Vector3d& centre,
+                 double radius) {
+  const Eigen::Vector3d oc = origin - centre;
+  const double b = oc.dot(ray), disc = b * b - (oc.squaredNorm() - radius * radius);
+  return disc < 0 ? -1.0 : -b - std::sqrt(disc);
+}
+
 Camera CameraLookingAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, int width, int height,
                        double focal_px) {
   Intrinsics k;

@@ -43,6 +43,11 @@ const TestWorkspace& SharedTestWorkspace(const std::string& name, int frames, in
 // A pinhole camera (focal length focal_px, principal point at the image
 // centre, no distortion) at `eye` looking at `target`, image up = +Z: the
 // analytic test scenes' cameras.
+// Ray parameter of the nearer intersection of a unit ray with a sphere
+// (negative when the ray's line misses it or it lies behind the origin).
+double RaySphere(const Eigen::Vector3d& origin, const Eigen::Vector3d& ray, const Eigen::Vector3d& centre,
+                 double radius);
+
 Camera CameraLookingAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, int width, int height,
                        double focal_px);
 

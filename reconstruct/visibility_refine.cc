@@ -91,6 +91,34 @@ void TaubinPass(const std::vector<std::vector<int>>& rings, double lambda, std::
 
 }  // namespace
 
+WeldedMesh::WeldedMesh(const render::TriangleMesh& input) : mesh(WeldEqualPositions(input, &index)) {
+  original = mesh.positions;
+  for (const Eigen::Vector3f& p : original) centroid += p.cast<double>() / static_cast<double>(original.size());
+}
+
+render::TriangleMesh WeldedMesh::Unweld(const render::TriangleMesh& input, double* mean_move_m,
+                                        double* max_move_m) const {
+  render::TriangleMesh moved = input;
+  double move_sum = 0;
+  *max_move_m = 0;
+  for (size_t v = 0; v < original.size(); ++v) {
+    const double move = (mesh.positions[v] - original[v]).cast<double>().norm();
+    move_sum += move;
+    *max_move_m = std::max(*max_move_m, move);
+  }
+  for (size_t v = 0; v < input.positions.size(); ++v) moved.positions[v] = mesh.positions[index[v]];
+  *mean_move_m = original.empty() ? 0.0 : move_sum / static_cast<double>(original.size());
+  if (!moved.normals.empty()) moved.ComputeVertexNormals();
+  return moved;
+}
+
+double MedianPixelFootprint(const std::vector<Camera>& cameras, const Eigen::Vector3d& point) {
+  std::vector<double> footprints;
+  for (const Camera& camera : cameras) footprints.push_back((camera.Center() - point).norm() / camera.intrinsics().fx);
+  RELIT_REQUIRE(!footprints.empty(), "refine: no cameras");
+  return Median(std::move(footprints));
+}
+
 void KeepAboveFloor(double floor_z_m, std::vector<Eigen::Vector3f>* positions) {
   for (Eigen::Vector3f& p : *positions) p.z() = std::max(p.z(), static_cast<float>(floor_z_m));
 }
@@ -123,15 +151,11 @@ render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const
                 " cameras but ", evidence.depths.size(), " depth maps");
   RELIT_REQUIRE(!mesh.triangles.empty(), "refine: the proxy has no triangles");
   // Vertices at equal positions (UV seams of a user mesh) move as one.
-  std::vector<int> welded_index;
-  render::TriangleMesh welded = WeldEqualPositions(mesh, &welded_index);
+  WeldedMesh weld(mesh);
+  render::TriangleMesh& welded = weld.mesh;
   std::vector<Eigen::Vector3f>& positions = welded.positions;
   const size_t n = positions.size();
-  const std::vector<Eigen::Vector3f> original = positions;
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3f& p : positions) centroid += p.cast<double>() / static_cast<double>(n);
   std::vector<ViewData> views(evidence.cameras.size());
-  std::vector<double> footprints;
   for (size_t k = 0; k < views.size(); ++k) {
     const Camera& camera = evidence.cameras[k];
     RELIT_REQUIRE(evidence.depths[k].type() == CV_32FC1 && evidence.depths[k].cols == camera.intrinsics().width &&
@@ -143,10 +167,10 @@ render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const
     views[k].centre = camera.Center();
     views[k].depth = &evidence.depths[k];
     views[k].nearest_depth = NearestDepth3x3(evidence.depths[k]);
-    footprints.push_back((views[k].centre - centroid).norm() / camera.intrinsics().fx);
   }
-  RELIT_REQUIRE(!footprints.empty(), "refine: no depth maps");
-  const double full_step = options.step_m > 0 ? options.step_m : 2.0 * Median(std::move(footprints));
+  RELIT_REQUIRE(!views.empty(), "refine: no depth maps");
+  const double full_step =
+      options.step_m > 0 ? options.step_m : 2.0 * MedianPixelFootprint(evidence.cameras, weld.centroid);
 
   const std::vector<std::vector<int>> rings = VertexRings(welded);
 
@@ -195,16 +219,7 @@ render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const
     KeepAboveFloor(floor_z_m, &positions);
   }
 
-  render::TriangleMesh refined = mesh;
-  double move_sum = 0;
-  for (size_t v = 0; v < n; ++v) {
-    const double move = (positions[v] - original[v]).cast<double>().norm();
-    move_sum += move;
-    report->max_move_m = std::max(report->max_move_m, move);
-  }
-  for (size_t v = 0; v < mesh.positions.size(); ++v) refined.positions[v] = positions[welded_index[v]];
-  report->mean_move_m = move_sum / static_cast<double>(n);
-  if (!refined.normals.empty()) refined.ComputeVertexNormals();
+  const render::TriangleMesh refined = weld.Unweld(mesh, &report->mean_move_m, &report->max_move_m);
   report->seconds = SecondsSince(start);
   spdlog::info("refine: {} iterations of {:.2f} mm steps; {} of {} vertices in free space at first, {} at last; "
                "vertices moved {:.2f} mm on average (max {:.2f} mm)",

@@ -57,6 +57,23 @@ struct RefineReport {
 
 // Moves the vertices of a closed, outward-oriented mesh (topology unchanged),
 // never below z = floor_z_m (the crop plane above the board).
+// A closed mesh welded at equal positions (UV seams move as one), for the
+// refinements that move its vertices: they move `mesh.positions` in place,
+// then Unweld() gives the input mesh with the moved positions.
+struct WeldedMesh {
+  explicit WeldedMesh(const render::TriangleMesh& input);
+  std::vector<int> index;                 // input vertex -> welded vertex (filled first)
+  render::TriangleMesh mesh;              // welded
+  std::vector<Eigen::Vector3f> original;  // welded positions before any move
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();  // of the original positions
+  // `input` with the moved positions (normals recomputed where it had them);
+  // the mean and largest move of the welded vertices.
+  render::TriangleMesh Unweld(const render::TriangleMesh& input, double* mean_move_m, double* max_move_m) const;
+};
+
+// Median over the cameras of the size of one pixel at `point` (metres).
+double MedianPixelFootprint(const std::vector<Camera>& cameras, const Eigen::Vector3d& point);
+
 // Each vertex's one-ring neighbours (sorted, unique).
 std::vector<std::vector<int>> VertexRings(const render::TriangleMesh& mesh);
 

@@ -23,9 +23,7 @@ constexpr double kRadius = 0.03;
 // unknown; Gaussian noise of `noise_m`.
 cv::Mat RenderDepth(const Camera& camera, double noise_m, std::mt19937* rng) {
   auto hit = [](const Eigen::Vector3d& origin, const Eigen::Vector3d& ray) {
-    const Eigen::Vector3d oc = origin - kCentre;
-    const double b = oc.dot(ray), c = oc.squaredNorm() - kRadius * kRadius, disc = b * b - c;
-    return disc >= 0 ? -b - std::sqrt(disc) : -1.0;
+    return testing::RaySphere(origin, ray, kCentre, kRadius);
   };
   cv::Mat depth = testing::RenderAnalyticDepth(camera, hit, /*table=*/true);
   if (noise_m > 0) {
