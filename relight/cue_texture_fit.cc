@@ -94,7 +94,13 @@ RELIT_OPTION_FIELDS(CueFitOptions,
     .Add("align_rounds", &S::align_rounds, 0, 20,
          "> 0: after each solve, shift every frame's image and matte by the sub-pixel translation that best "
          "matches the fit, then solve again")
-    .Add("max_shift_px", &S::max_shift_px, 0.0, 100.0, "largest alignment shift"))
+    .Add("max_shift_px", &S::max_shift_px, 0.0, 100.0, "largest alignment shift")
+    .Add("robust_rounds", &S::robust_rounds, 0, 20,
+         "rounds of reweighted least squares after the solve (Cauchy weights on each pixel's residual): pixels "
+         "no cue weights explain pull their texels less; 0 = plain least squares")
+    .Add("robust_scale", &S::robust_scale, 0.05, 100.0,
+         "the Cauchy weight's scale, in robust sigmas (1.4826 x the median residual): a pixel this far off "
+         "weighs 1/2"))
 
 void CueFitOptions::Check() const {
   RELIT_REQUIRE(saturation_level >= 0 || saturation_level == kAutoSaturationLevel,
@@ -106,7 +112,8 @@ void CueFitOptions::Check() const {
 nlohmann::json CueFitStats::ToJson() const {
   return {{"pixels", pixels},          {"saturated_pixels", saturated_pixels}, {"saturated_above", saturated_above}, {"texels_seen", texels_seen},
           {"iterations", iterations},  {"rms_residual", rms_residual},         {"median_shift_px", median_shift_px},
-          {"max_shift_px", max_shift_px}, {"clip_overshoot", clip_overshoot}};
+          {"max_shift_px", max_shift_px}, {"clip_overshoot", clip_overshoot}, {"robust_sigma", robust_sigma},
+          {"robust_downweighted", robust_downweighted}};
 }
 
 CueTextureFit::CueTextureFit(int resolution_px, const CueFitOptions& options)
@@ -337,6 +344,7 @@ int CueTextureFit::SolveChannel(int c, int res, const Vec5& global, std::vector<
         const double* xt = &x[static_cast<size_t>(b.texel[j]) * kBases];
         for (int k = 0; k < kBases; ++k) pred += b.weight[j] * xt[k] * cue[k];
       }
+      pred *= s.weight;
       for (int j = 0; j < 4; ++j) {
         double* ot = &(*out)[static_cast<size_t>(b.texel[j]) * kBases];
         for (int k = 0; k < kBases; ++k) ot[k] += b.weight[j] * pred * cue[k];
@@ -370,8 +378,9 @@ int CueTextureFit::SolveChannel(int c, int res, const Vec5& global, std::vector<
     const Eigen::Map<const Vec5> q(cue);
     const Bilinear b = BilinearAt(s.u, s.v, res);
     for (int j = 0; j < 4; ++j) {
-      for (int k = 0; k < kBases; ++k) rhs[static_cast<size_t>(b.texel[j]) * kBases + k] += b.weight[j] * Bound(s, c) * cue[k];
-      block[b.texel[j]] += (b.weight[j] * b.weight[j]) * q * q.transpose();
+      const double w = s.weight * b.weight[j];
+      for (int k = 0; k < kBases; ++k) rhs[static_cast<size_t>(b.texel[j]) * kBases + k] += w * Bound(s, c) * cue[k];
+      block[b.texel[j]] += (w * b.weight[j]) * q * q.transpose();
     }
   }
   std::vector<Eigen::LDLT<Mat5>> inverse(texels);
@@ -499,6 +508,62 @@ void CueTextureFit::PrepareSamples() {
   for (auto& active : active_) active.assign(samples_.size(), 1);  // clipped fitted as equal at first
 }
 
+double CueTextureFit::Residual(const Sample& s) const {
+  const std::array<float, kWeights> w = WeightsAt(s.u, s.v);
+  double sq = 0;
+  for (int c = 0; c < 3; ++c) {
+    const double pred = PredictChannel(w, s.cues.data(), c);
+    // A clipped channel only bounds the prediction from below.
+    const double error = (s.clipped >> c & 1) ? std::min(0.0, pred - Bound(s, c)) : pred - s.target[c];
+    sq += error * error;
+  }
+  return std::sqrt(sq / 3.0);
+}
+
+int CueTextureFit::SolveRobust(CueFitStats* stats) {
+  constexpr double kRobustSigmaFloor = 0.01;
+  int iterations = 0;
+  double target_sq = 0;
+  for (const Sample& s : samples_) target_sq += s.target[0] * s.target[0] + s.target[1] * s.target[1] + s.target[2] * s.target[2];
+  const double target_rms = std::max(std::sqrt(target_sq / (3.0 * static_cast<double>(samples_.size()))), 1e-12);
+  for (int round = 0; round < options_.robust_rounds; ++round) {
+    std::vector<double> residual(samples_.size());
+    tbb::parallel_for(size_t{0}, samples_.size(), [&](size_t i) { residual[i] = Residual(samples_[i]); });
+    std::vector<double> sorted = residual;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    // Floor: 1 % of the targets' RMS, below any camera's noise. Without it a
+    // fit of clean data (rendered targets) takes its rounding errors for the
+    // scale, weighs most pixels near 0, and the smoothness then outweighs them.
+    const double sigma = std::max(1.4826 * sorted[sorted.size() / 2], kRobustSigmaFloor * target_rms);
+    const double scale = options_.robust_scale * sigma;
+    int64_t downweighted = 0;
+    // Each texel keeps its pixels' total weight: the robust weights only say
+    // which of them to believe, so the smoothness does not gain on the data
+    // where the residuals are large (it would flatten the weights there).
+    const size_t texels = static_cast<size_t>(resolution_) * resolution_;
+    std::vector<double> weight_sum(texels, 0.0), count(texels, 0.0);
+    std::vector<size_t> texel(samples_.size());
+    for (size_t i = 0; i < samples_.size(); ++i) {
+      const double z = residual[i] / scale;
+      samples_[i].weight = static_cast<float>(1.0 / (1.0 + z * z));
+      downweighted += samples_[i].weight < 0.5f;
+      const int x = std::clamp(static_cast<int>(samples_[i].u * resolution_), 0, resolution_ - 1);
+      const int y = std::clamp(static_cast<int>((1.0f - samples_[i].v) * resolution_), 0, resolution_ - 1);
+      texel[i] = static_cast<size_t>(y) * resolution_ + x;
+      weight_sum[texel[i]] += samples_[i].weight;
+      count[texel[i]] += 1;
+    }
+    for (size_t i = 0; i < samples_.size(); ++i) {
+      samples_[i].weight *= static_cast<float>(count[texel[i]] / weight_sum[texel[i]]);
+    }
+    stats->robust_sigma = sigma;
+    stats->robust_downweighted = static_cast<double>(downweighted) / static_cast<double>(samples_.size());
+    iterations += SolveWeights(/*from_scratch=*/false);
+    iterations += SolveClipped();
+  }
+  return iterations;
+}
+
 CueFitStats CueTextureFit::Solve() {
   clip_overshoot_ = 1.0;  // a second Solve starts again from the readings
   PrepareSamples();
@@ -539,12 +604,14 @@ CueFitStats CueTextureFit::Solve() {
     stats.iterations += SolveClipped();
   }
   stats.clip_overshoot = clip_overshoot_;
+  stats.iterations += SolveRobust(&stats);
   const int rounds = frames_.empty() ? 0 : options_.align_rounds;
   for (int round = 0; round < rounds; ++round) {
     AlignFrames();
     PrepareSamples();
     stats.iterations += SolveWeights(/*from_scratch=*/false);
     stats.iterations += SolveClipped();
+    stats.iterations += SolveRobust(&stats);
   }
   stats.pixels = static_cast<int64_t>(samples_.size());
   const size_t texels = static_cast<size_t>(resolution_) * resolution_;
@@ -554,15 +621,12 @@ CueFitStats CueTextureFit::Solve() {
     const Bilinear b = BilinearAt(s.u, s.v, resolution_);
     for (int j = 0; j < 4; ++j) seen[b.texel[j]] |= b.weight[j] > 0 ? 1 : 0;
     stats.saturated_pixels += s.clipped != 0;
-    const std::array<float, kWeights> w = WeightsAt(s.u, s.v);
-    for (int c = 0; c < 3; ++c) {
-      const double pred = PredictChannel(w, s.cues.data(), c);
-      const bool clipped = s.clipped >> c & 1;
-      stats.saturated_above += clipped && pred > s.target[c];
-      // A clipped channel only bounds the prediction from below.
-      const double error = clipped ? std::min(0.0, pred - Bound(s, c)) : pred - s.target[c];
-      sq += error * error;
+    if (s.clipped) {
+      const std::array<float, kWeights> w = WeightsAt(s.u, s.v);
+      for (int c = 0; c < 3; ++c) stats.saturated_above += (s.clipped >> c & 1) && PredictChannel(w, s.cues.data(), c) > s.target[c];
     }
+    const double residual = Residual(s);
+    sq += 3.0 * residual * residual;
   }
   stats.texels_seen = std::count(seen.begin(), seen.end(), 1);
   stats.rms_residual = std::sqrt(sq / (3.0 * samples_.size()));

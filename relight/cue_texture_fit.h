@@ -87,6 +87,17 @@ struct CueFitOptions {
   // Off by default: on the demo it cost 0.3-0.4 dB (docs/relight.md).
   int align_rounds = 0;          // 0 = no alignment
   double max_shift_px = 3.0;     // largest shift a frame may take
+  // Robust fit: after the least-squares solve, rounds of iteratively
+  // reweighted least squares with Cauchy weights 1 / (1 + (e / (scale x
+  // sigma))^2), e a pixel's RMS residual over its channels and sigma 1.4826 x
+  // the median e (the MAD, at least 1 % of the targets' RMS); each texel keeps
+  // its pixels' total weight. Pixels that no cue weights explain then pull
+  // their texels less: the printed board mirrored by glossy paint, glints, a
+  // texture edge that the proxy misplaces in one view. Off by default: it
+  // helps where the proxy is wrong and costs where the inputs are right
+  // (docs/relight.md, "Robust rounds"). 0 = least squares.
+  int robust_rounds = 0;
+  double robust_scale = 1.0;
 
   static const OptionFields<CueFitOptions>& Fields();
   void Check() const;  // saturation_level >= 0 or auto; ranges: CheckOptions
@@ -104,6 +115,8 @@ struct CueFitStats {
   int64_t texels_seen = 0;  // texels of the final level with pixel weight
   int iterations = 0;       // conjugate-gradient iterations, all levels and channels
   double rms_residual = 0;  // training pixels, linear, all channels
+  double robust_sigma = 0;        // the last robust round's residual scale (1.4826 x median), linear
+  double robust_downweighted = 0; // share of pixels the last robust round weighted below 0.5
   double median_shift_px = 0;  // frames' alignment shifts (0 without AddFrame or align_rounds)
   double max_shift_px = 0;
 
@@ -166,6 +179,7 @@ class CueTextureFit {
     std::array<float, kWeights> cues;
     std::array<float, 3> target;
     uint8_t clipped = 0;  // bit c: channel c at or above the saturation level
+    float weight = 1;     // the robust rounds' weight of this pixel's data term
   };
   // A frame kept for alignment: its crop around the proxy's coverage.
   struct Frame {
@@ -203,6 +217,11 @@ class CueTextureFit {
   int SolveClipped();
   // BuildSamples with every clipped channel active.
   void PrepareSamples();
+  // The robust rounds (CueFitOptions::robust_rounds) from the current
+  // solution; returns CG iterations and records the last round in *stats.
+  int SolveRobust(CueFitStats* stats);
+  // A pixel's RMS residual over its channels under the current weights.
+  double Residual(const Sample& s) const;
 
   int resolution_;
   CueFitOptions options_;

@@ -39,6 +39,22 @@ Pixel RandomPixel(std::mt19937& rng, float u_max = 1.0f) {
   return p;
 }
 
+// RMS error of the fit's prediction of 2000 new pixels, relative to their RMS.
+double HeldOutRelativeError(const CueTextureFit& fit, std::mt19937& rng) {
+  double sq = 0, ref = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const Pixel p = RandomPixel(rng);
+    const auto w = fit.WeightsAt(p.u, p.v);
+    for (int c = 0; c < 3; ++c) {
+      double pred = 0;
+      for (int k = 0; k < 5; ++k) pred += w[3 * k + c] * p.cues[3 * k + c];
+      sq += (pred - p.rgb[c]) * (pred - p.rgb[c]);
+      ref += p.rgb[c] * p.rgb[c];
+    }
+  }
+  return std::sqrt(sq / ref);
+}
+
 TEST(CueTextureFitTest, RecoversASmoothLinearCueModel) {
   CueFitOptions options;
   options.iterations_per_level = 200;
@@ -54,20 +70,41 @@ TEST(CueTextureFitTest, RecoversASmoothLinearCueModel) {
   EXPECT_EQ(stats.texels_seen, 32 * 32);
   EXPECT_LT(stats.rms_residual, 0.01);
   // Held-out pixels: the bilinear weights predict them.
-  double sq = 0, ref = 0;
-  for (int i = 0; i < 2000; ++i) {
-    const Pixel p = RandomPixel(rng);
-    const auto w = fit.WeightsAt(p.u, p.v);
-    for (int c = 0; c < 3; ++c) {
-      double pred = 0;
-      for (int k = 0; k < 5; ++k) pred += w[3 * k + c] * p.cues[3 * k + c];
-      sq += (pred - p.rgb[c]) * (pred - p.rgb[c]);
-      ref += p.rgb[c] * p.rgb[c];
-    }
-  }
-  EXPECT_LT(std::sqrt(sq / ref), 0.01);
+  EXPECT_LT(HeldOutRelativeError(fit, rng), 0.01);
   // The Lambert weight itself, in the middle of the atlas.
   EXPECT_NEAR(fit.WeightsAt(0.5f, 0.5f)[0], TrueWeight(0, 0, 0.5f, 0.5f), 0.02);
+}
+
+// One pixel in eight is far brighter than any cue weights explain (a glint,
+// the board mirrored by glossy paint): least squares lifts every texel they
+// land on, the robust rounds weigh them down and recover the true weights.
+TEST(CueTextureFitTest, RobustRoundsIgnorePixelsNoWeightsExplain) {
+  auto held_out_error = [](int robust_rounds, CueFitStats* stats) {
+    CueFitOptions options;
+    options.saturation_level = 0;
+    options.iterations_per_level = 200;
+    options.robust_rounds = robust_rounds;
+    CueTextureFit fit(16, options);
+    std::mt19937 rng(11);
+    for (int i = 0; i < 40000; ++i) {
+      Pixel p = RandomPixel(rng);
+      if (i % 8 == 0) {
+        for (float& c : p.rgb) c += 1.5f;
+      }
+      fit.AddPixel(p.cues, p.u, p.v, p.rgb);
+    }
+    *stats = fit.Solve();
+    return HeldOutRelativeError(fit, rng);
+  };
+  CueFitStats plain, robust;
+  const double plain_error = held_out_error(0, &plain);
+  const double robust_error = held_out_error(2, &robust);
+  EXPECT_GT(plain_error, 0.1);  // least squares follows the outliers
+  EXPECT_LT(robust_error, 0.3 * plain_error);
+  EXPECT_EQ(plain.robust_sigma, 0);
+  EXPECT_GT(robust.robust_sigma, 0);
+  // The outliers (1 in 8) are weighed down.
+  EXPECT_GT(robust.robust_downweighted, 0.11);
 }
 
 TEST(CueTextureFitTest, TexelsWithoutPixelsContinueTheirNeighbours) {
