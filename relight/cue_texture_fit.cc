@@ -508,8 +508,7 @@ void CueTextureFit::PrepareSamples() {
   for (auto& active : active_) active.assign(samples_.size(), 1);  // clipped fitted as equal at first
 }
 
-double CueTextureFit::Residual(const Sample& s) const {
-  const std::array<float, kWeights> w = WeightsAt(s.u, s.v);
+double CueTextureFit::Residual(const Sample& s, const std::array<float, kWeights>& w) const {
   double sq = 0;
   for (int c = 0; c < 3; ++c) {
     const double pred = PredictChannel(w, s.cues.data(), c);
@@ -521,14 +520,29 @@ double CueTextureFit::Residual(const Sample& s) const {
 }
 
 int CueTextureFit::SolveRobust(CueFitStats* stats) {
+  if (options_.robust_rounds == 0 || samples_.empty()) return 0;
   constexpr double kRobustSigmaFloor = 0.01;
-  int iterations = 0;
   double target_sq = 0;
   for (const Sample& s : samples_) target_sq += s.target[0] * s.target[0] + s.target[1] * s.target[1] + s.target[2] * s.target[2];
   const double target_rms = std::max(std::sqrt(target_sq / (3.0 * static_cast<double>(samples_.size()))), 1e-12);
+  // Each texel keeps its pixels' total weight: the robust weights only say
+  // which of them to believe, so the smoothness does not gain on the data
+  // where the residuals are large (it would flatten the weights there).
+  const size_t texels = static_cast<size_t>(resolution_) * resolution_;
+  std::vector<double> count(texels, 0.0);
+  std::vector<size_t> texel(samples_.size());
+  for (size_t i = 0; i < samples_.size(); ++i) {
+    const int x = std::clamp(static_cast<int>(samples_[i].u * resolution_), 0, resolution_ - 1);
+    const int y = std::clamp(static_cast<int>((1.0f - samples_[i].v) * resolution_), 0, resolution_ - 1);
+    texel[i] = static_cast<size_t>(y) * resolution_ + x;
+    count[texel[i]] += 1;
+  }
+  int iterations = 0;
   for (int round = 0; round < options_.robust_rounds; ++round) {
     std::vector<double> residual(samples_.size());
-    tbb::parallel_for(size_t{0}, samples_.size(), [&](size_t i) { residual[i] = Residual(samples_[i]); });
+    tbb::parallel_for(size_t{0}, samples_.size(), [&](size_t i) {
+      residual[i] = Residual(samples_[i], WeightsAt(samples_[i].u, samples_[i].v));
+    });
     std::vector<double> sorted = residual;
     std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
     // Floor: 1 % of the targets' RMS, below any camera's noise. Without it a
@@ -537,21 +551,12 @@ int CueTextureFit::SolveRobust(CueFitStats* stats) {
     const double sigma = std::max(1.4826 * sorted[sorted.size() / 2], kRobustSigmaFloor * target_rms);
     const double scale = options_.robust_scale * sigma;
     int64_t downweighted = 0;
-    // Each texel keeps its pixels' total weight: the robust weights only say
-    // which of them to believe, so the smoothness does not gain on the data
-    // where the residuals are large (it would flatten the weights there).
-    const size_t texels = static_cast<size_t>(resolution_) * resolution_;
-    std::vector<double> weight_sum(texels, 0.0), count(texels, 0.0);
-    std::vector<size_t> texel(samples_.size());
+    std::vector<double> weight_sum(texels, 0.0);
     for (size_t i = 0; i < samples_.size(); ++i) {
       const double z = residual[i] / scale;
       samples_[i].weight = static_cast<float>(1.0 / (1.0 + z * z));
       downweighted += samples_[i].weight < 0.5f;
-      const int x = std::clamp(static_cast<int>(samples_[i].u * resolution_), 0, resolution_ - 1);
-      const int y = std::clamp(static_cast<int>((1.0f - samples_[i].v) * resolution_), 0, resolution_ - 1);
-      texel[i] = static_cast<size_t>(y) * resolution_ + x;
       weight_sum[texel[i]] += samples_[i].weight;
-      count[texel[i]] += 1;
     }
     for (size_t i = 0; i < samples_.size(); ++i) {
       samples_[i].weight *= static_cast<float>(count[texel[i]] / weight_sum[texel[i]]);
@@ -621,11 +626,9 @@ CueFitStats CueTextureFit::Solve() {
     const Bilinear b = BilinearAt(s.u, s.v, resolution_);
     for (int j = 0; j < 4; ++j) seen[b.texel[j]] |= b.weight[j] > 0 ? 1 : 0;
     stats.saturated_pixels += s.clipped != 0;
-    if (s.clipped) {
-      const std::array<float, kWeights> w = WeightsAt(s.u, s.v);
-      for (int c = 0; c < 3; ++c) stats.saturated_above += (s.clipped >> c & 1) && PredictChannel(w, s.cues.data(), c) > s.target[c];
-    }
-    const double residual = Residual(s);
+    const std::array<float, kWeights> w = WeightsAt(s.u, s.v);
+    for (int c = 0; c < 3; ++c) stats.saturated_above += (s.clipped >> c & 1) && PredictChannel(w, s.cues.data(), c) > s.target[c];
+    const double residual = Residual(s, w);
     sq += 3.0 * residual * residual;
   }
   stats.texels_seen = std::count(seen.begin(), seen.end(), 1);

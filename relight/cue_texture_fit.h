@@ -220,8 +220,8 @@ class CueTextureFit {
   // The robust rounds (CueFitOptions::robust_rounds) from the current
   // solution; returns CG iterations and records the last round in *stats.
   int SolveRobust(CueFitStats* stats);
-  // A pixel's RMS residual over its channels under the current weights.
-  double Residual(const Sample& s) const;
+  // A pixel's RMS residual over its channels under its weights `w` (WeightsAt).
+  double Residual(const Sample& s, const std::array<float, kWeights>& w) const;
 
   int resolution_;
   CueFitOptions options_;
