@@ -14,6 +14,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/atomic_output.h"
+#include "core/capture_file.h"
 #include "core/error.h"
 #include "core/image.h"
 #include "core/json_file.h"
@@ -26,6 +27,7 @@
 #include "core/workspace.h"
 #include "reconstruct/closed_form_matting.h"
 #include "reconstruct/mesh_cleanup.h"
+#include "reconstruct/light_views.h"
 #include "reconstruct/proxy_normals.h"
 #include "reconstruct/proxy_source.h"
 #include "reconstruct/surface_photo_refine.h"
@@ -99,7 +101,17 @@ render::TriangleMesh BuildProxy(const fs::path& workspace, const CamerasFile& ca
   if (photometric.enabled && photometric.rounds > 0) {
     auto photo_timer = record.Time("refine_photometric");
     SurfacePhotoReport photo_report;
-    proxy = RefineSurfacePhotometric(proxy, evidence.cameras, evidence.grays, photometric,
+    std::vector<Camera> photo_cameras = std::move(evidence.cameras);
+    std::vector<cv::Mat> photo_grays = std::move(evidence.grays);
+    if (photometric.light_frames) {
+      LightViews light = LoadLightViews(workspace, cameras);
+      if (!light.cameras.empty()) record.AddInput("capture", CaptureFilePath(workspace.string()));
+      spdlog::info("surface photometric refine: {} phone L frames vote beside {} phone V frames",
+                   light.cameras.size(), photo_cameras.size());
+      photo_cameras.insert(photo_cameras.end(), light.cameras.begin(), light.cameras.end());
+      photo_grays.insert(photo_grays.end(), light.grays.begin(), light.grays.end());
+    }
+    proxy = RefineSurfacePhotometric(proxy, photo_cameras, photo_grays, photometric,
                                      options.cleanup.crop_margin_m, &photo_report);
     if (options.cleanup.remove_self_intersections) {
       photo_report.self_intersection_faces_replaced =

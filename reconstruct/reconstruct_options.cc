@@ -148,12 +148,16 @@ RELIT_OPTION_FIELDS(SurfacePhotoOptions,
     .Add("rounds", &S::rounds, 0, 20, "search rounds, each over half the previous range")
     .Add("search_px", &S::search_px, 0.1, 100.0, "first round's range, +/- pixel footprints along the normal")
     .Add("steps", &S::steps, 1, 100, "offsets tried on each side")
-    .Add("patch_radius", &S::patch_radius, 1, 10, "tangent-plane patch of (2r+1)^2 samples, a footprint apart")
+    .Add("patch_radius", &S::patch_radius, 1, 10, "patch of (2r+1)^2 samples, a footprint apart")
     .Add("max_views", &S::max_views, 2, 100, "frames compared per vertex: the most frontal, then each the farthest in angle from those picked")
     .Add("min_facing_cosine", &S::min_facing_cosine, 0.0, 1.0, "more grazing frames do not vote")
     .Add("min_texture", &S::min_texture, 0.0, 255.0, "patch grey std below this: the vertex takes no vote")
     .Add("min_score", &S::min_score, -1.0, 1.0, "best mean ZNCC below this: the vertex takes no vote")
-    .Add("smoothness", &S::smoothness, 0.0, 1e6, "neighbour coupling of the offsets (a sure vertex weighs 1)"))
+    .Add("smoothness", &S::smoothness, 0.0, 1e6, "neighbour coupling of the offsets (a sure vertex weighs 1)")
+    .Add("curved_patch", &S::curved_patch,
+         "the patch follows the surface (a quadric fit to the vertex's two-ring), not its tangent plane")
+    .Add("light_frames", &S::light_frames,
+         "phone L's registered frames (flash-lit from their own lens, other viewpoints) vote beside phone V's"))
 
 RELIT_OPTION_FIELDS(RefineOptions,
     .Add("enabled", &S::enabled, "refine the cleaned proxy against the dense path's depth maps")

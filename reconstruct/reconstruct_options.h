@@ -186,19 +186,21 @@ struct AtlasOptions {
 };
 
 // Photometric refinement of the refined proxy (surface_photo_refine.h): each
-// vertex searched along its normal for the offset where a tangent-plane
-// patch looks alike in the frames that see it. YAML: refine.photometric.
+// vertex searched along its normal for the offset where a patch of the
+// surface around it looks alike in the frames that see it. YAML: refine.photometric.
 struct SurfacePhotoOptions {
   bool enabled = true;
   int rounds = 3;                 // each round halves the search
   double search_px = 3.0;         // first round: +/- this many pixel footprints along the normal
   int steps = 6;                  // offsets tried on each side of the current surface
-  int patch_radius = 4;           // (2r+1)^2 tangent-plane samples, one pixel footprint apart
+  int patch_radius = 4;           // (2r+1)^2 patch samples, one pixel footprint apart
   int max_views = 10;             // views compared: the most frontal, then the widest spread
   double min_facing_cosine = 0.5; // views more grazing than this do not vote
   double min_texture = 3.0;       // patch contrast (grey std) below this: no vote
-  double min_score = 0.7;         // best mean ZNCC below this: no vote (0.5-0.7: votes half as right)
+  double min_score = 0.8;         // best mean ZNCC below this: no vote (lower: more votes, less right)
   double smoothness = 2.0;        // neighbour coupling of the offsets (a sure vertex weighs 1)
+  bool light_frames = true;       // phone L's registered frames vote too (light_views.h)
+  bool curved_patch = true;       // the patch follows the surface's curvature (a quadric fit to the two-ring)
   static const OptionFields<SurfacePhotoOptions>& Fields();
 };
 

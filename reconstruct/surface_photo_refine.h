@@ -7,14 +7,13 @@
 // error already costs the relit images 1.7 dB: every texture edge lands on
 // the wrong surface point in each view (docs/notes/relight-fidelity-2026-11-28b.md).
 // Here each vertex is searched again along its normal for the offset at
-// which a small patch of the tangent plane looks the same in every frame
-// that sees it (zero-mean normalised cross-correlation of the patch's
+// which a small patch of the surface around it (a quadric fitted to its
+// two-ring) looks the same in every frame that sees it (zero-mean normalised cross-correlation of the patch's
 // projections into views spread in angle, the better half voting: multi-view mesh
 // refinement in the manner of OpenMVS' RefineMesh, with a plane sweep per
 // vertex instead of gradients). The frames are flash-lit from positions that
 // move, so the score is invariant to each view's gain and offset, and
-// textureless patches (white flanks: their position barely matters to the
-// relit images) take no vote. The measured offsets are then smoothed over
+// textureless patches (white flanks) take no vote. The measured offsets are then smoothed over
 // the mesh (weighted by how sure each is) and the vertices moved; a few
 // rounds narrow the search.
 #pragma once
@@ -46,7 +45,8 @@ struct SurfacePhotoReport {
 
 // Moves the vertices of a closed, outward-oriented mesh along their normals
 // (topology unchanged), never below z = floor_z_m. `grays` are the frames
-// (CV_8U) of the undistorted `cameras`, same order and sizes.
+// (CV_8U) of the undistorted `cameras`, same order and sizes (phone V's
+// frames, and phone L's with options.light_frames: light_views.h).
 render::TriangleMesh RefineSurfacePhotometric(const render::TriangleMesh& mesh, const std::vector<Camera>& cameras,
                                               const std::vector<cv::Mat>& grays, const SurfacePhotoOptions& options,
                                               double floor_z_m, SurfacePhotoReport* report);
