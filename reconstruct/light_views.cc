@@ -7,12 +7,13 @@
 #include "core/capture_file.h"
 #include "core/error.h"
 #include "core/image.h"
+#include "reconstruct/proxy_source.h"
 
 namespace relit::reconstruct {
 
-LightViews LoadLightViews(const std::filesystem::path& workspace, const CamerasFile& cameras) {
+LightViews LoadLightViews(const std::filesystem::path& workspace, const CamerasFile& cameras, int max_frames) {
   LightViews result;
-  const std::vector<const CalibratedFrame*> frames = cameras.FramesOf("light");
+  const std::vector<const CalibratedFrame*> frames = Subsample(cameras.FramesOf("light"), max_frames);
   if (frames.empty()) return result;
   const auto lens = cameras.devices.find("light");
   RELIT_REQUIRE(lens != cameras.devices.end(), "reconstruct: calib/cameras.json has phone L frames but no device "

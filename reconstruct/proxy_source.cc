@@ -26,14 +26,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Evenly spaced subset of at most `max_frames` (0 = all).
-std::vector<const CalibratedFrame*> Subsample(const std::vector<const CalibratedFrame*>& frames, int max_frames) {
-  if (max_frames <= 0 || static_cast<int>(frames.size()) <= max_frames) return frames;
-  std::vector<const CalibratedFrame*> out;
-  for (int i = 0; i < max_frames; ++i) out.push_back(frames[static_cast<size_t>(i) * frames.size() / max_frames]);
-  return out;
-}
-
 std::string FrameList(const std::vector<std::string>& names) {
   std::string text;
   for (size_t i = 0; i < names.size() && i < 8; ++i) text += (i ? ", " : "") + names[i];
@@ -242,6 +234,13 @@ void AddHullPoints(const std::vector<Camera>& cameras, const std::vector<cv::Mat
 }
 
 }  // namespace
+
+std::vector<const CalibratedFrame*> Subsample(const std::vector<const CalibratedFrame*>& frames, int max_frames) {
+  if (max_frames <= 0 || static_cast<int>(frames.size()) <= max_frames) return frames;
+  std::vector<const CalibratedFrame*> out;
+  for (int i = 0; i < max_frames; ++i) out.push_back(frames[static_cast<size_t>(i) * frames.size() / max_frames]);
+  return out;
+}
 
 std::vector<const CalibratedFrame*> GeometryFrames(const CamerasFile& cameras, std::string* source) {
   for (const char* device : {"geometry", "view"}) {

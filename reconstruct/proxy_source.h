@@ -21,6 +21,9 @@
 
 namespace relit::reconstruct {
 
+// Evenly spaced subset of at most `max_frames` (0 = all).
+std::vector<const CalibratedFrame*> Subsample(const std::vector<const CalibratedFrame*>& frames, int max_frames);
+
 // Frames the geometry is taken from: the geometry-pass frames (device
 // "geometry", ambient light, as Gao et al. recommend) when cameras.json has
 // any with an undistorted image, else the phone V frames. `source` gets the

@@ -104,7 +104,7 @@ render::TriangleMesh BuildProxy(const fs::path& workspace, const CamerasFile& ca
     std::vector<Camera> photo_cameras = std::move(evidence.cameras);
     std::vector<cv::Mat> photo_grays = std::move(evidence.grays);
     if (photometric.light_frames) {
-      LightViews light = LoadLightViews(workspace, cameras);
+      LightViews light = LoadLightViews(workspace, cameras, options.proxy.max_frames);
       if (!light.cameras.empty()) record.AddInput("capture", CaptureFilePath(workspace.string()));
       spdlog::info("surface photometric refine: {} phone L frames vote beside {} phone V frames",
                    light.cameras.size(), photo_cameras.size());
@@ -143,14 +143,6 @@ ProxyFile WriteProxyMesh(const render::TriangleMesh& proxy, const ReconstructOpt
   summary->charts = atlas.chart_count;
   summary->atlas_utilisation = atlas_stats.utilisation;
   return proxy_file;
-}
-
-// At most max_matte_frames frames, evenly spread.
-std::vector<const CalibratedFrame*> MatteFrames(const std::vector<const CalibratedFrame*>& frames, int max_frames) {
-  if (max_frames <= 0 || static_cast<int>(frames.size()) <= max_frames) return frames;
-  std::vector<const CalibratedFrame*> picked;
-  for (int i = 0; i < max_frames; ++i) picked.push_back(frames[static_cast<size_t>(i) * frames.size() / max_frames]);
-  return picked;
 }
 
 // The trimap and closed-form matte of one frame; false (and a note in the
@@ -201,7 +193,7 @@ void WriteMattes(const fs::path& workspace, const CamerasFile& cameras, const st
   render::Scene scene;
   scene.AddObject(proxy, render::Material::Lambert(render::Rgb::Constant(0.5f)), 1);
   scene.Commit();
-  const std::vector<const CalibratedFrame*> matte_frames = MatteFrames(frames, options.max_matte_frames);
+  const std::vector<const CalibratedFrame*> matte_frames = Subsample(frames, options.max_matte_frames);
   const fs::path root = run.path();
   fs::create_directories(root / "mattes");
   fs::create_directories(root / "trimaps");

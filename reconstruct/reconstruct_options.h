@@ -198,7 +198,7 @@ struct SurfacePhotoOptions {
   double min_facing_cosine = 0.5; // views more grazing than this do not vote
   double min_texture = 3.0;       // patch contrast (grey std) below this: no vote
   double min_score = 0.8;         // best mean ZNCC below this: no vote (lower: more votes, less right)
-  double smoothness = 2.0;        // neighbour coupling of the offsets (a sure vertex weighs 1)
+  double smoothness = 1.0;        // neighbour coupling of the offsets (a sure vertex weighs 1)
   bool light_frames = true;       // phone L's registered frames vote too (light_views.h)
   bool curved_patch = true;       // the patch follows the surface's curvature (a quadric fit to the two-ring)
   static const OptionFields<SurfacePhotoOptions>& Fields();
