@@ -37,7 +37,8 @@ RELIT_OPTION_FIELDS(DepthHullOptions,
 RELIT_OPTION_FIELDS(ProxyOptions,
     .Add("method", &S::method, {"dense", "sparse", "mesh"},
          "dense stereo + Poisson, sparse COLMAP points + advancing front, or the given mesh (`--proxy-method`)")
-    .Add("max_frames", &S::max_frames, 0, 1000000, "frames used for depth, 0 or >= 3 (0 = all; else evenly spaced)")
+    .Add("max_frames", &S::max_frames, 0, 1000000,
+         "frames used for depth and phone L frames for refine.photometric, each 0 or >= 3 (0 = all; else evenly spaced)")
     .Add("neighbours", &S::neighbours, 1, 8, "stereo neighbours of each reference frame")
     .Add("min_baseline_deg", &S::min_baseline_deg, 0.1, 90.0, "smallest triangulation angle of a stereo pair")
     .Add("target_baseline_deg", &S::target_baseline_deg, 0.1, 90.0, "preferred angle, between min and max")
