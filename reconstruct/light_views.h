@@ -24,10 +24,10 @@ struct LightViews {
 
 // Every registered phone L frame of `cameras` whose image capture.json lists
 // (none without W/capture/capture.json, e.g. a workspace calibrated from
-// COLMAP or a test fixture). Throws relit::Error naming the file when an image is missing or its size
-// is not the calibrated lens's.
-// At most `max_frames` of them, evenly spaced (0 = all): proxy.max_frames,
-// the cap the phone V frames have too.
+// COLMAP or a test fixture), at most `max_frames` of them evenly spaced
+// (0 = all; proxy.max_frames, the phone V frames' cap). Throws
+// relit::Error naming the file when an image cannot be read or its size is
+// not the calibrated lens's.
 LightViews LoadLightViews(const std::filesystem::path& workspace, const CamerasFile& cameras, int max_frames = 0);
 
 }  // namespace relit::reconstruct

@@ -57,14 +57,7 @@ DensePoints DenseDepthPoints(const fs::path& workspace, const CamerasFile& camer
       const CalibratedFrame& f = *frames[i];
       views[i].name = f.name;
       views[i].camera = cameras.ViewCamera(f);
-      const Image image = ReadImage((workspace / f.image_8bit).string());
-      const Intrinsics& k = views[i].camera.intrinsics();
-      RELIT_REQUIRE(image.width() == k.width && image.height() == k.height && image.channels() >= 3,
-                    "reconstruct: ", f.image_8bit, " is ", image.width(), "x", image.height(), "x", image.channels(),
-                    ", the undistorted camera is ", k.width, "x", k.height, " RGB; rerun relit-calib");
-      cv::Mat rgb = image.SelectChannels(std::vector<int>{0, 1, 2}).ToMat(), gray;
-      cv::cvtColor(rgb, gray, cv::COLOR_RGB2GRAY);
-      gray.convertTo(views[i].gray, CV_8U, 255.0);
+      views[i].gray = ReadGrayFrame(workspace, f.image_8bit, views[i].camera.intrinsics(), "the undistorted camera");
       camera_list[i] = views[i].camera;
     });
   }
@@ -234,6 +227,18 @@ void AddHullPoints(const std::vector<Camera>& cameras, const std::vector<cv::Mat
 }
 
 }  // namespace
+
+cv::Mat ReadGrayFrame(const fs::path& workspace, const std::string& image_path, const Intrinsics& camera,
+                      const std::string& camera_name) {
+  const Image image = ReadImage((workspace / image_path).string());
+  RELIT_REQUIRE(image.width() == camera.width && image.height() == camera.height && image.channels() >= 3,
+                "reconstruct: ", image_path, " is ", image.width(), "x", image.height(), "x", image.channels(), ", ",
+                camera_name, " is ", camera.width, "x", camera.height, " RGB; rerun relit-calib on this capture");
+  cv::Mat rgb = image.SelectChannels(std::vector<int>{0, 1, 2}).ToMat(), gray, gray8;
+  cv::cvtColor(rgb, gray, cv::COLOR_RGB2GRAY);
+  gray.convertTo(gray8, CV_8U, 255.0);
+  return gray8;
+}
 
 std::vector<const CalibratedFrame*> Subsample(const std::vector<const CalibratedFrame*>& frames, int max_frames) {
   if (max_frames <= 0 || static_cast<int>(frames.size()) <= max_frames) return frames;

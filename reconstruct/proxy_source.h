@@ -11,6 +11,7 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 
 #include "core/render/mesh.h"
 #include "core/run_record.h"
@@ -20,6 +21,12 @@
 #include "reconstruct/visibility_refine.h"
 
 namespace relit::reconstruct {
+
+// The 8-bit frame `image_path` (relative to `workspace`) as CV_8U grey;
+// throws relit::Error naming it when its size is not `camera`'s
+// (`camera_name` says which camera, for the message).
+cv::Mat ReadGrayFrame(const std::filesystem::path& workspace, const std::string& image_path, const Intrinsics& camera,
+                      const std::string& camera_name);
 
 // Evenly spaced subset of at most `max_frames` (0 = all).
 std::vector<const CalibratedFrame*> Subsample(const std::vector<const CalibratedFrame*>& frames, int max_frames);

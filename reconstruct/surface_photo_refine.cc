@@ -152,35 +152,43 @@ struct LocalSurface {
   }
 };
 
-// Least-squares height field through the vertex's two-ring (flat when the
-// ring is too small to fit it).
+// Each vertex's one- and two-ring neighbours (the topology does not change
+// between rounds).
+std::vector<std::vector<int>> TwoRings(const std::vector<std::vector<int>>& rings) {
+  std::vector<std::vector<int>> two_rings(rings.size());
+  for (size_t v = 0; v < rings.size(); ++v) {
+    std::vector<int>& neighbourhood = two_rings[v];
+    for (int u : rings[v]) {
+      neighbourhood.push_back(u);
+      for (int w : rings[static_cast<size_t>(u)]) {
+        if (static_cast<size_t>(w) != v) neighbourhood.push_back(w);
+      }
+    }
+    std::sort(neighbourhood.begin(), neighbourhood.end());
+    neighbourhood.erase(std::unique(neighbourhood.begin(), neighbourhood.end()), neighbourhood.end());
+  }
+  return two_rings;
+}
+
+// Least-squares height field through the vertex's two-ring (flat without
+// `two_ring`, or when it is too small to fit).
 LocalSurface FitLocalSurface(size_t vertex, const Eigen::Vector3d& normal, const std::vector<Eigen::Vector3f>& positions,
-                             const std::vector<std::vector<int>>& rings, bool curved) {
+                             const std::vector<int>* two_ring) {
   LocalSurface surface;
   surface.t1 = normal.unitOrthogonal();
   surface.t2 = normal.cross(surface.t1);
-  if (!curved) return surface;
-  std::vector<int> neighbourhood = rings[vertex];
-  for (int u : rings[vertex]) {
-    for (int w : rings[static_cast<size_t>(u)]) neighbourhood.push_back(w);
-  }
-  std::sort(neighbourhood.begin(), neighbourhood.end());
-  neighbourhood.erase(std::unique(neighbourhood.begin(), neighbourhood.end()), neighbourhood.end());
+  if (two_ring == nullptr || two_ring->size() < 8) return surface;
   const Eigen::Vector3d p = positions[vertex].cast<double>();
   Eigen::Matrix<double, 5, 5> normal_matrix = Eigen::Matrix<double, 5, 5>::Zero();
   Eigen::Matrix<double, 5, 1> rhs = Eigen::Matrix<double, 5, 1>::Zero();
-  int used = 0;
-  for (int w : neighbourhood) {
-    if (static_cast<size_t>(w) == vertex) continue;
+  for (int w : *two_ring) {
     const Eigen::Vector3d d = positions[static_cast<size_t>(w)].cast<double>() - p;
     const double u = d.dot(surface.t1), v = d.dot(surface.t2);
     Eigen::Matrix<double, 5, 1> row;
     row << u * u, u * v, v * v, u, v;
     normal_matrix += row * row.transpose();
     rhs += row * d.dot(normal);
-    ++used;
   }
-  if (used < 8) return surface;
   const Eigen::Matrix<double, 5, 1> height = normal_matrix.ldlt().solve(rhs);
   if (height.allFinite()) surface.height = height;
   return surface;
@@ -288,6 +296,7 @@ render::TriangleMesh RefineSurfacePhotometric(const render::TriangleMesh& mesh, 
   RELIT_REQUIRE(!views.empty(), "refine.photometric: no frames");
   const double spacing_m = MedianPixelFootprint(cameras, weld.centroid);
   const std::vector<std::vector<int>> rings = VertexRings(welded);
+  const std::vector<std::vector<int>> two_rings = options.curved_patch ? TwoRings(rings) : std::vector<std::vector<int>>{};
   report->vertices = static_cast<int>(n);
   report->search_m = options.search_px * spacing_m;
   report->patch_spacing_m = spacing_m;
@@ -302,7 +311,8 @@ render::TriangleMesh RefineSurfacePhotometric(const render::TriangleMesh& mesh, 
     scene.Commit();
     tbb::parallel_for(size_t(0), n, [&](size_t v) {
       const Eigen::Vector3d normal = welded.normals[v].cast<double>().normalized();
-      const LocalSurface surface = FitLocalSurface(v, normal, positions, rings, options.curved_patch);
+      const LocalSurface surface =
+          FitLocalSurface(v, normal, positions, options.curved_patch ? &two_rings[v] : nullptr);
       votes[v] = SearchVertex(positions[v].cast<double>(), normal, surface, views, scene, spacing_m, search_m, options);
     });
     const int measured = static_cast<int>(std::count_if(votes.begin(), votes.end(), [](const OffsetVote& o) {
