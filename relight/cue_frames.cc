@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "core/error.h"
+#include "core/render/cue_denoise.h"
 #include "core/render/cue_renderer.h"
 #include "core/render/path_tracer.h"
 #include "relight/sh_encoding.h"
@@ -229,7 +230,11 @@ Image RenderCueFrame(render::Scene& scene, const Camera& camera, const CueLight&
   options.environment_visible = false;
   options.alpha_object_ids = {kProxyObjectId};
   if (format.is_sh()) return RenderShFrame(scene, camera, light, options);
-  const render::RenderResult result = render::RenderCues(scene, camera, options, SelectBases(format.bases));
+  const std::vector<render::CueBasis> bases = SelectBases(format.bases);
+  render::RenderResult result = render::RenderCues(scene, camera, options, bases);
+  if (settings.denoise_maps && (light.kind == CueLight::Kind::kEnvironment || light.kind == CueLight::Kind::kQuad)) {
+    result.radiance = render::DenoiseCues(result, result.radiance, {}, render::CueNormalSigmas(bases));
+  }
   const int width = result.radiance.width(), height = result.radiance.height();
   const int light_channels = format.light_channels();
   Image frame(width, height, format.Channels());

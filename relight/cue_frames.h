@@ -73,6 +73,9 @@ struct CueRenderSettings {
   int samples_per_pixel = 16;
   int max_depth = 4;
   uint64_t seed = 1;
+  // Filter the cues of environment maps and area lights (render::DenoiseCues);
+  // point and directional lights' direct light is exact and stays unfiltered.
+  bool denoise_maps = false;
 };
 
 // A light for cue rendering. Units as core/render/light.h.
