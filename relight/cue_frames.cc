@@ -231,9 +231,23 @@ Image RenderCueFrame(render::Scene& scene, const Camera& camera, const CueLight&
   options.alpha_object_ids = {kProxyObjectId};
   if (format.is_sh()) return RenderShFrame(scene, camera, light, options);
   const std::vector<render::CueBasis> bases = SelectBases(format.bases);
-  render::RenderResult result = render::RenderCues(scene, camera, options, bases);
-  if (settings.denoise_maps && (light.kind == CueLight::Kind::kEnvironment || light.kind == CueLight::Kind::kQuad)) {
+  render::RenderResult result;
+  const bool delta_light = light.kind == CueLight::Kind::kPoint || light.kind == CueLight::Kind::kDirectional;
+  if (!settings.denoise) {
+    result = render::RenderCues(scene, camera, options, bases);
+  } else if (!delta_light) {
+    result = render::RenderCues(scene, camera, options, bases);
     result.radiance = render::DenoiseCues(result, result.radiance, {}, render::CueNormalSigmas(bases));
+  } else {
+    // The delta light's direct light is exact: only the rest is filtered.
+    result = render::RenderCuesDeltaDirectApart(scene, camera, options, bases);
+    const int cue_channels = 3 * static_cast<int>(bases.size());
+    std::vector<int> rest(cue_channels), direct(cue_channels);
+    for (int c = 0; c < cue_channels; ++c) rest[c] = c, direct[c] = cue_channels + c;
+    Image filtered = render::DenoiseCues(result, result.radiance.SelectChannels(rest), {}, render::CueNormalSigmas(bases));
+    const Image exact = result.radiance.SelectChannels(direct);
+    for (size_t i = 0; i < filtered.data().size(); ++i) filtered.data()[i] += exact.data()[i];
+    result.radiance = std::move(filtered);
   }
   const int width = result.radiance.width(), height = result.radiance.height();
   const int light_channels = format.light_channels();

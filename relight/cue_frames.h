@@ -73,9 +73,10 @@ struct CueRenderSettings {
   int samples_per_pixel = 16;
   int max_depth = 4;
   uint64_t seed = 1;
-  // Filter the cues of environment maps and area lights (render::DenoiseCues);
-  // point and directional lights' direct light is exact and stays unfiltered.
-  bool denoise_maps = false;
+  // Filter the cues' path-tracing noise (render::DenoiseCues): all of an
+  // environment map's or area light's cues; of a point or directional
+  // light's, all but its direct light at the primary hit, which is exact.
+  bool denoise = false;
 };
 
 // A light for cue rendering. Units as core/render/light.h.

@@ -292,7 +292,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
   CueRenderSettings settings;
   settings.samples_per_pixel = options.samples_per_pixel > 0 ? options.samples_per_pixel : render.samples_per_pixel;
   settings.max_depth = asset.cue_max_depth;  // the cues the networks were trained on
-  settings.denoise_maps = render.denoise_maps;
+  settings.denoise = render.denoise_cues;
   const std::unique_ptr<render::Scene> scene = LoadProxyScene(asset.mesh, asset.support_plane, asset.normal_map);
   const int training_spp = ReadCuesFile((root / "relight/cues/cues.json").string()).samples_per_pixel;
   // More samples than training is fine and better (the demo: 8-spp training

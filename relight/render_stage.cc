@@ -230,7 +230,7 @@ void RunRenderStage(const std::string& workspace, const RenderStageOptions& opti
       options.distance_scale > 0 ? options.distance_scale * asset.object_radius_m : asset.capture_distance_m;
   CueRenderSettings settings;
   settings.samples_per_pixel = options.samples_per_pixel;
-  settings.denoise_maps = options.denoise_maps;
+  settings.denoise = options.denoise_cues;
   StageRun out(AtomicDir(fs::path(workspace) / "relight" / "render"), record, "render.json");
   const double flash = asset.flash_intensity;
   const render::EnvironmentLight environment =
@@ -315,7 +315,7 @@ void RunRenderViews(const AssetDescription& asset, const std::string& views_json
   RelitRenderer renderer(asset, device);
   CueRenderSettings settings;
   settings.samples_per_pixel = options.samples_per_pixel;
-  settings.denoise_maps = options.denoise_maps;
+  settings.denoise = options.denoise_cues;
   Progress progress("render views", static_cast<int64_t>(parsed.size()));
   auto timer = record.Time("render_views");
   int index = 0;

@@ -90,9 +90,9 @@ RELIT_OPTION_FIELDS(RenderStageOptions,
          "EXR/HDR file (equirectangular, +Z up), procedural:sky or procedural:studio; \"\" = procedural:sky")
     .Add("environment_scale", &S::environment_scale, "the map's radiance scale; > 0")
     .Add("samples_per_pixel", &S::samples_per_pixel, 1, 1 << 16, "cue paths per pixel for new views")
-    .Add("denoise_maps", &S::denoise_maps,
-         "filter the cues of environment maps and area lights with an edge-aware filter guided by the proxy's "
-         "normals and depth (\"Cue denoising\"); eval and the turntables both")
+    .Add("denoise_cues", &S::denoise_cues,
+         "filter the new views' cues with an edge-aware filter guided by the proxy's normals and depth, all "
+         "but a point or directional light's exact direct light (\"Cue denoising\"); eval and the turntables")
     .Add("write_mp4", &S::write_mp4, "the turntables as MP4 too"))
 
 void RenderStageOptions::Check() const {

@@ -90,7 +90,7 @@ struct RenderStageOptions {
   std::string environment_map;
   double environment_scale = 1.0;
   int samples_per_pixel = 16;         // cue rendering for new views
-  bool denoise_maps = true;           // filter environment-map and area-light cues (eval too)
+  bool denoise_cues = true;           // filter the cues' path-tracing noise (eval too)
   bool write_mp4 = true;
 
   static const OptionFields<RenderStageOptions>& Fields();

@@ -10,8 +10,9 @@
 // (docs/notes/relight-fidelity-2026-11-29c.md). Averaging each pixel with
 // its neighbours that lie on the same object, with a similar shading normal
 // and a similar camera depth, removes most of that noise while keeping the
-// silhouette, creases and depth edges. Point and directional lights need no
-// filtering: their direct light is sampled exactly.
+// silhouette, creases and depth edges. A point or directional light's
+// direct light is exact and carries hard shadow edges: relight renders it
+// apart (RenderCuesDeltaDirectApart) and filters only the rest.
 #pragma once
 
 #include "core/image.h"

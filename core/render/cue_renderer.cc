@@ -45,15 +45,16 @@ float MixturePdf(const std::vector<CueBasis>& basis, const Vec3f& wo, const Vec3
 
 void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec3f& origin_in,
                const Vec3f& direction_in, const Hit* primary, const RenderOptions& options, Rng& rng,
-               float* out) {
+               float* out, float* delta_direct_out) {
   const int k_count = static_cast<int>(basis.size());
   RELIT_CHECK(k_count >= 1 && k_count <= kMaxBasis);
   Rgb throughput[kMaxBasis];
   for (int k = 0; k < k_count; ++k) throughput[k] = Rgb::Ones();
-  auto add = [&](int k, const Rgb& value) {
+  auto add_to = [&](float* target, int k, const Rgb& value) {
     if (!value.allFinite()) return;
-    for (int c = 0; c < 3; ++c) out[3 * k + c] += value[c];
+    for (int c = 0; c < 3; ++c) target[3 * k + c] += value[c];
   };
+  auto add = [&](int k, const Rgb& value) { add_to(out, k, value); };
   Vec3f origin = origin_in, direction = direction_in.normalized();
   float bsdf_pdf = -1;  // < 0: camera ray
   // Objects outside alpha_object_ids are context (the support plane): they
@@ -119,7 +120,10 @@ void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec
           scale = wi.z() * PowerHeuristic(light_pdf, sampling_pdf(wi)) / light_pdf;
         }
         eval_each(wi);
-        for (int k = 0; k < k_count; ++k) add(k, throughput[k] * f[k] * ls.radiance * scale);
+        // A delta light's direct light at the primary hit is exact (no
+        // noise but the pixel footprint's): it may be kept apart.
+        float* target = delta_direct_out != nullptr && ls.delta && bounce == 0 ? delta_direct_out : out;
+        for (int k = 0; k < k_count; ++k) add_to(target, k, throughput[k] * f[k] * ls.radiance * scale);
       }
     }
 
@@ -159,6 +163,21 @@ RenderResult RenderCues(const Scene& scene, const Camera& camera, const RenderOp
       scene, camera, options, CueChannelNames(static_cast<int>(basis.size())),
       [&](const Vec3f& origin, const Vec3f& direction, const Hit* primary, Rng& rng, float* out) {
         TraceCues(scene, basis, origin, direction, primary, options, rng, out);
+      },
+      progress);
+}
+
+RenderResult RenderCuesDeltaDirectApart(const Scene& scene, const Camera& camera, const RenderOptions& options,
+                                        const std::vector<CueBasis>& basis, const RenderProgress& progress) {
+  RELIT_REQUIRE(!basis.empty() && static_cast<int>(basis.size()) <= kMaxBasis,
+                "radiance cues need 1 to ", kMaxBasis, " basis materials, got ", basis.size());
+  const int k_count = static_cast<int>(basis.size());
+  std::vector<std::string> names = CueChannelNames(k_count);
+  for (const std::string& name : CueChannelNames(k_count)) names.push_back("direct." + name);
+  return RenderWithIntegrator(
+      scene, camera, options, names,
+      [&](const Vec3f& origin, const Vec3f& direction, const Hit* primary, Rng& rng, float* out) {
+        TraceCues(scene, basis, origin, direction, primary, options, rng, out, out + 3 * k_count);
       },
       progress);
 }

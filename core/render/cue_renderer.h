@@ -30,10 +30,12 @@ std::vector<CueBasis> DefaultCueBasis();
 std::vector<std::string> CueChannelNames(int count);
 
 // Adds one sample of every basis cue (3 floats per basis) to `out`.
-// `primary` is the camera ray's first intersection (nullptr = miss).
+// `primary` is the camera ray's first intersection (nullptr = miss). With
+// `delta_direct_out` set, the direct light of point and directional lights
+// at the primary hit goes there instead of `out` (same layout).
 void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec3f& origin,
                const Vec3f& direction, const Hit* primary, const RenderOptions& options, Rng& rng,
-               float* out);
+               float* out, float* delta_direct_out = nullptr);
 
 // Renders all cues for one camera. RenderResult::radiance holds 3 x basis
 // channels; alpha, uv, uv derivatives and the other AOVs are as RenderImage's.
@@ -44,5 +46,15 @@ void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec
 RenderResult RenderCues(const Scene& scene, const Camera& camera, const RenderOptions& options,
                         const std::vector<CueBasis>& basis = DefaultCueBasis(),
                         const RenderProgress& progress = {});
+
+// As RenderCues, with the direct light of point and directional lights at
+// the primary hit kept apart: radiance holds 2 x 3 x basis channels, the
+// cues without that light (CueChannelNames), then that light alone
+// ("direct." + the same names); their sum is RenderCues' radiance. The
+// apart part has no noise but the pixel footprint's, so a denoiser can
+// leave it (and its hard shadow edges) alone.
+RenderResult RenderCuesDeltaDirectApart(const Scene& scene, const Camera& camera, const RenderOptions& options,
+                                        const std::vector<CueBasis>& basis = DefaultCueBasis(),
+                                        const RenderProgress& progress = {});
 
 }  // namespace relit::render
