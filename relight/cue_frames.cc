@@ -244,7 +244,8 @@ Image RenderCueFrame(render::Scene& scene, const Camera& camera, const CueLight&
     const int cue_channels = 3 * static_cast<int>(bases.size());
     std::vector<int> rest(cue_channels), direct(cue_channels);
     for (int c = 0; c < cue_channels; ++c) rest[c] = c, direct[c] = cue_channels + c;
-    Image filtered = render::DenoiseCues(result, result.radiance.SelectChannels(rest), {}, render::CueNormalSigmas(bases));
+    Image filtered =
+        render::DenoiseCues(result, result.radiance.SelectChannels(rest), {}, render::CueNormalSigmas(bases));
     const Image exact = result.radiance.SelectChannels(direct);
     for (size_t i = 0; i < filtered.data().size(); ++i) filtered.data()[i] += exact.data()[i];
     result.radiance = std::move(filtered);

@@ -37,8 +37,9 @@ Image DenoiseCues(const RenderResult& aovs, const Image& radiance, const CueDeno
   std::vector<float> spatial((2 * r + 1) * (2 * r + 1));
   for (int dy = -r; dy <= r; ++dy) {
     for (int dx = -r; dx <= r; ++dx) {
+      const double sigma = options.spatial_sigma_px;
       spatial[(dy + r) * (2 * r + 1) + dx + r] =
-          std::exp(-0.5f * (dx * dx + dy * dy) / static_cast<float>(options.spatial_sigma_px * options.spatial_sigma_px));
+          static_cast<float>(std::exp(-0.5 * (dx * dx + dy * dy) / (sigma * sigma)));
     }
   }
   RELIT_REQUIRE(normal_sigmas.empty() || static_cast<int>(normal_sigmas.size()) * 3 == channels,
@@ -69,7 +70,8 @@ Image DenoiseCues(const RenderResult& aovs, const Image& radiance, const CueDeno
             const float q_alpha = aovs.alpha.at(qx, qy, 0);
             if (aovs.object_id.at(qx, qy, 0) != id || q_alpha <= 0) continue;
             const float* m = aovs.normal.pixel(qx, qy);
-            const float dn = (n[0] - m[0]) * (n[0] - m[0]) + (n[1] - m[1]) * (n[1] - m[1]) + (n[2] - m[2]) * (n[2] - m[2]);
+            const float dn =
+                (n[0] - m[0]) * (n[0] - m[0]) + (n[1] - m[1]) * (n[1] - m[1]) + (n[2] - m[2]) * (n[2] - m[2]);
             const float dz = (aovs.depth.at(qx, qy, 0) - z) / z;
             const float w_shared = spatial[(qy - y + r) * (2 * r + 1) + qx - x + r] * std::exp(-dz * dz * inv_depth);
             // Unpremultiplied: a partly covered neighbour counts its surface's radiance.
