@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <numeric>
 
 #include "core/error.h"
 #include "core/render/cue_denoise.h"
@@ -231,33 +232,32 @@ Image RenderCueFrame(render::Scene& scene, const Camera& camera, const CueLight&
   options.alpha_object_ids = {kProxyObjectId};
   if (format.is_sh()) return RenderShFrame(scene, camera, light, options);
   const std::vector<render::CueBasis> bases = SelectBases(format.bases);
-  render::RenderResult result;
-  const bool delta_light = light.kind == CueLight::Kind::kPoint || light.kind == CueLight::Kind::kDirectional;
-  if (!settings.denoise) {
-    result = render::RenderCues(scene, camera, options, bases);
-  } else if (!delta_light) {
-    result = render::RenderCues(scene, camera, options, bases);
-    result.radiance = render::DenoiseCues(result, result.radiance, {}, render::CueNormalSigmas(bases));
-  } else {
-    // The delta light's direct light is exact: only the rest is filtered.
-    result = render::RenderCuesDeltaDirectApart(scene, camera, options, bases);
-    const int cue_channels = 3 * static_cast<int>(bases.size());
-    std::vector<int> rest(cue_channels), direct(cue_channels);
-    for (int c = 0; c < cue_channels; ++c) rest[c] = c, direct[c] = cue_channels + c;
-    Image filtered =
-        render::DenoiseCues(result, result.radiance.SelectChannels(rest), {}, render::CueNormalSigmas(bases));
-    const Image exact = result.radiance.SelectChannels(direct);
-    for (size_t i = 0; i < filtered.data().size(); ++i) filtered.data()[i] += exact.data()[i];
-    result.radiance = std::move(filtered);
-  }
-  const int width = result.radiance.width(), height = result.radiance.height();
+  // A point or directional light's direct light is exact and holds the hard
+  // shadow edges: when denoising, it is rendered apart and left unfiltered.
+  const bool direct_apart =
+      settings.denoise && (light.kind == CueLight::Kind::kPoint || light.kind == CueLight::Kind::kDirectional);
+  const render::RenderResult result = direct_apart ? render::RenderCuesDeltaDirectApart(scene, camera, options, bases)
+                                                   : render::RenderCues(scene, camera, options, bases);
   const int light_channels = format.light_channels();
+  Image filtered;
+  if (settings.denoise) {
+    std::vector<int> noisy(light_channels);
+    std::iota(noisy.begin(), noisy.end(), 0);
+    filtered = render::DenoiseCues(result, direct_apart ? result.radiance.SelectChannels(noisy) : result.radiance,
+                                   {}, render::CueNormalSigmas(bases));
+  }
+  const Image& cue_image = settings.denoise ? filtered : result.radiance;
+  const int width = result.radiance.width(), height = result.radiance.height();
   Image frame(width, height, format.Channels());
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
       float* out = frame.pixel(x, y);
-      const float* cues = result.radiance.pixel(x, y);
+      const float* cues = cue_image.pixel(x, y);
       for (int c = 0; c < light_channels; ++c) out[c] = cues[c];
+      if (direct_apart) {
+        const float* direct = result.radiance.pixel(x, y) + light_channels;
+        for (int c = 0; c < light_channels; ++c) out[c] += direct[c];
+      }
       WriteGeometryChannels(result, x, y, out + light_channels);
     }
   }

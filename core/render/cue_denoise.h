@@ -15,9 +15,9 @@
 // apart (RenderCuesDeltaDirectApart) and filters only the rest.
 #pragma once
 
-#include "core/image.h"
 #include <vector>
 
+#include "core/image.h"
 #include "core/render/cue_renderer.h"
 #include "core/render/path_tracer.h"
 

@@ -155,31 +155,39 @@ void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec
   }
 }
 
-RenderResult RenderCues(const Scene& scene, const Camera& camera, const RenderOptions& options,
-                        const std::vector<CueBasis>& basis, const RenderProgress& progress) {
-  RELIT_REQUIRE(!basis.empty() && static_cast<int>(basis.size()) <= kMaxBasis,
-                "radiance cues need 1 to ", kMaxBasis, " basis materials, got ", basis.size());
-  return RenderWithIntegrator(
-      scene, camera, options, CueChannelNames(static_cast<int>(basis.size())),
-      [&](const Vec3f& origin, const Vec3f& direction, const Hit* primary, Rng& rng, float* out) {
-        TraceCues(scene, basis, origin, direction, primary, options, rng, out);
-      },
-      progress);
-}
+namespace {
 
-RenderResult RenderCuesDeltaDirectApart(const Scene& scene, const Camera& camera, const RenderOptions& options,
-                                        const std::vector<CueBasis>& basis, const RenderProgress& progress) {
+// RenderCues' body; with `direct_apart`, the delta lights' direct light at
+// the primary hit goes into a second block of 3 x basis channels.
+RenderResult RenderCueChannels(const Scene& scene, const Camera& camera, const RenderOptions& options,
+                               const std::vector<CueBasis>& basis, const RenderProgress& progress,
+                               bool direct_apart) {
   RELIT_REQUIRE(!basis.empty() && static_cast<int>(basis.size()) <= kMaxBasis,
                 "radiance cues need 1 to ", kMaxBasis, " basis materials, got ", basis.size());
   const int k_count = static_cast<int>(basis.size());
   std::vector<std::string> names = CueChannelNames(k_count);
-  for (const std::string& name : CueChannelNames(k_count)) names.push_back("direct." + name);
+  if (direct_apart) {
+    for (const std::string& name : CueChannelNames(k_count)) names.push_back("direct." + name);
+  }
   return RenderWithIntegrator(
       scene, camera, options, names,
       [&](const Vec3f& origin, const Vec3f& direction, const Hit* primary, Rng& rng, float* out) {
-        TraceCues(scene, basis, origin, direction, primary, options, rng, out, out + 3 * k_count);
+        TraceCues(scene, basis, origin, direction, primary, options, rng, out,
+                  direct_apart ? out + 3 * k_count : nullptr);
       },
       progress);
+}
+
+}  // namespace
+
+RenderResult RenderCues(const Scene& scene, const Camera& camera, const RenderOptions& options,
+                        const std::vector<CueBasis>& basis, const RenderProgress& progress) {
+  return RenderCueChannels(scene, camera, options, basis, progress, false);
+}
+
+RenderResult RenderCuesDeltaDirectApart(const Scene& scene, const Camera& camera, const RenderOptions& options,
+                                        const std::vector<CueBasis>& basis, const RenderProgress& progress) {
+  return RenderCueChannels(scene, camera, options, basis, progress, true);
 }
 
 }  // namespace relit::render
