@@ -41,6 +41,12 @@ RELIT_OPTION_FIELDS(SfmOptions,
          "mode auto: images (all devices) from which board_seeded is taken")
     .Add("seed_min_corners", &S::seed_min_corners, 4, 10000, "board corners a frame needs to seed the model")
     .Add("max_features", &S::max_features, 100, 100000, "SIFT features per image")
+    .Add("mapper_global_ba_growth", &S::mapper_global_ba_growth, 1.01, 100.0,
+         "incremental mapper: a global bundle adjustment each time the model grows by this factor "
+         "(COLMAP's Mapper.ba_global_images_ratio and ba_global_points_ratio; COLMAP's default 1.1)")
+    .Add("mapper_global_ba_refinements", &S::mapper_global_ba_refinements, 1, 100,
+         "incremental mapper: rounds of global bundle adjustment and retriangulation at the end "
+         "(COLMAP's Mapper.ba_global_max_refinements; COLMAP's default 5)")
     .Add("first_octave", &S::first_octave, -1, 0,
          "SIFT's first octave: -1 doubles the image first (COLMAP's default), 0 does not (~3x faster, fewer features)")
     .Add("colmap", &S::colmap, "the COLMAP executable")

@@ -255,6 +255,8 @@ nlohmann::json AddStructureFromMotion(const std::vector<CalibFrame>& frames, con
   run.min_registered = so.min_registered;
   run.max_features = so.max_features;
   run.first_octave = so.first_octave;
+  run.mapper_global_ba_growth = so.mapper_global_ba_growth;
+  run.mapper_global_ba_refinements = so.mapper_global_ba_refinements;
   run.reuse_dir = so.reuse_dir;
   if (mode == "board_seeded") {
     // The seeds keep their board pose; COLMAP places the rest.

@@ -338,8 +338,13 @@ void RunColmapSteps(const std::vector<SfmImage>& images, const std::map<std::str
       " --Mapper.ba_refine_focal_length 0 --Mapper.ba_refine_principal_point 0 --Mapper.ba_refine_extra_params 0"
       " --Mapper.num_threads " + std::to_string(threads);
   if (o.known_poses.empty()) {
-    result->timings_s["mapper"] = RunStep(o, "mapper", common + " --image_path " + ShellQuote(o.image_dir) +
-                                                           " --output_path " + ShellQuote(sparse) + fixed_lens);
+    const std::string growth = std::to_string(o.mapper_global_ba_growth);
+    result->timings_s["mapper"] =
+        RunStep(o, "mapper",
+                common + " --image_path " + ShellQuote(o.image_dir) + " --output_path " + ShellQuote(sparse) +
+                    fixed_lens + " --Mapper.ba_global_images_ratio " + growth +
+                    " --Mapper.ba_global_points_ratio " + growth + " --Mapper.ba_global_max_refinements " +
+                    std::to_string(o.mapper_global_ba_refinements));
   } else {
     RunSeeded(o, database, images, lenses, sparse + "/0", fixed_lens, &result->timings_s);
   }

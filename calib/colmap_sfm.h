@@ -43,6 +43,8 @@ struct SfmRunOptions {
   int min_registered = 6;
   int max_features = 8192;  // SIFT features per image (COLMAP's default)
   int first_octave = -1;    // SIFT's first octave (COLMAP's default -1: the image doubled first)
+  double mapper_global_ba_growth = 1.4;   // Mapper.ba_global_images_ratio and ba_global_points_ratio
+  int mapper_global_ba_refinements = 2;   // Mapper.ba_global_max_refinements
   // "opencv": descriptors matched by OpenCV (calib/feature_matching.h), then
   // verified by COLMAP; "colmap": COLMAP's own sequential_matcher and
   // matches_importer (FLANN, ~10x slower per pair on the CPU).
