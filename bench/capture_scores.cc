@@ -113,7 +113,7 @@ CaptureScores ScoreCapture(const std::string& workspace, const std::string& capt
   }
   RELIT_REQUIRE(!s.psnr_db.empty(), eval_path.string(), ": no \"all\" rows in its summary");
   RELIT_REQUIRE(eval.contains("truth_noise_floor"), eval_path.string(),
-                ": no truth_noise_floor (the capture's eval set has no twin renders)");
+                ": no truth_noise_floor (the capture's eval set has no noise halves or twins)");
   s.noise_floor_db = eval["truth_noise_floor"]["per_light_type"]["all"]["psnr_db"].get<double>();
   return s;
 }

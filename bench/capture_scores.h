@@ -10,7 +10,7 @@
 //                medians in the board frame (no alignment), flash position
 //   reconstruct: proxy symmetric mean Chamfer distance to the truth objects
 //   relight:     eval.json's PSNR per method over all eval images, and the
-//                truth's own noise floor (its twin renders)
+//                truth's own noise floor (its noise halves or twins)
 //
 // A figure whose input is missing is an error, not a blank: a scorer that
 // silently finds no truth hides a defect.
@@ -31,7 +31,7 @@ struct CaptureScores {
   nlohmann::json calib_accuracy;                  // calib::CalibAccuracy::ToJson()
   double chamfer_mm = 0, chamfer_percent = 0;     // of the truth objects' bounding-box diagonal
   std::map<std::string, double> psnr_db;          // eval method -> PSNR over all images
-  double noise_floor_db = 0;                      // truth vs its twin, all images
+  double noise_floor_db = 0;                      // the truth's noise floor, all images
   int eval_images = 0;
   nlohmann::json ToJson() const;
 };

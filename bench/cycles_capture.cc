@@ -230,12 +230,18 @@ json MakeSpec(const CyclesCaptureOptions& o, const CapturePlan& plan, const fs::
   for (const synth::EvalView& view : plan.eval_views) {
     for (size_t l = 0; l < plan.eval_lights.size(); ++l) {
       const synth::EvalLight& light = plan.eval_lights[l];
-      for (int twin = 0; twin < (s.eval_noise_twin ? 2 : 1); ++twin) {
+      // As relit-synth: the image is the mean of two independent halves of
+      // its samples, the first kept for eval's noise floor.
+      const std::string image = synth::EvalImagePath(view.name, light.name);
+      const std::string second = image.substr(0, image.size() - 4) + ".second_half.exr";  // averaged in, not kept
+      const int halves = s.eval_noise_halves ? 2 : 1;
+      for (int half = 0; half < halves; ++half) {
         json job = CameraJob(plan.eval_intrinsics, view.cam_from_world);
-        job.update({{"output", twin ? synth::EvalTwinImagePath(view.name, light.name)
-                                    : synth::EvalImagePath(view.name, light.name)},
-                    {"spp", s.eval_samples_per_pixel}, {"seed", seed++}, {"kind", "eval"},
+        job.update({{"output", halves == 1 ? image : half == 0 ? synth::EvalHalfImagePath(view.name, light.name) : second},
+                    {"spp", (s.eval_samples_per_pixel + halves - 1) / halves}, {"seed", seed++},
+                    {"kind", half == 0 ? "eval" : "eval_second_half"},
                     {"lights", {EvalLightJson(light)}}});
+        if (halves == 2 && half == 0) job.update({{"image", image}, {"second_half", second}});
         jobs.push_back(job);
       }
     }
@@ -445,12 +451,20 @@ CyclesCaptureSummary MakeCyclesCapture(const CyclesCaptureOptions& options) {
     WriteImage((root / synth::EnvmapPath(name)).string(), map, PixelStorage::kFloat);
   }
   for (const json& job : spec["jobs"]) {
-    if (job["kind"] == "video") continue;
+    if (job["kind"] == "video" || job["kind"] == "eval_second_half") continue;
     const std::string cached = job["output"];
     const std::string rel = cached.substr(eval_dir.size() + 1);  // its path in the capture
     const Image rendered = ReadImage((cache / cached).string());
     fs::create_directories((root / rel).parent_path());
-    if (job["kind"] == "alpha") {
+    if (job.contains("second_half")) {  // a first half: kept, and the image is the mean of both
+      const Image first = rendered.SelectChannels(std::vector<int>{0, 1, 2});
+      Image mean = ReadImage((cache / eval_dir / job["second_half"].get<std::string>()).string())
+                       .SelectChannels(std::vector<int>{0, 1, 2});
+      RELIT_REQUIRE(mean.data().size() == first.data().size(), "Cycles' eval halves of ", rel, " differ in size");
+      for (size_t i = 0; i < mean.data().size(); ++i) mean.data()[i] = 0.5f * (mean.data()[i] + first.data()[i]);
+      WriteImage((root / rel).string(), first, PixelStorage::kHalf);
+      WriteImage((root / job["image"].get<std::string>()).string(), mean, PixelStorage::kHalf);
+    } else if (job["kind"] == "alpha") {
       Image alpha = rendered.SelectChannels(std::vector<int>{3});
       alpha.set_channel_names({"A"});
       WriteImage((root / rel).string(), alpha, PixelStorage::kHalf);

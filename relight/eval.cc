@@ -101,15 +101,17 @@ TruthEvalSet ReadTruthEvalSet(const std::string& truth_json) {
       RELIT_REQUIRE(images.contains(light.name), at, ": no image for light ", light.name);
       view.images[light.name] = (root / images[light.name].get<std::string>()).string();
     }
-    if (v.contains("images_twin")) {
-      const json& twins = JsonField(v, "images_twin", at);
+    for (const auto& [key, paths] : {std::pair{"images_twin", &view.twins}, std::pair{"images_half", &view.halves}}) {
+      if (!v.contains(key)) continue;
+      const json& listed = JsonField(v, key, at);
       for (const TruthLight& light : set.lights) {
-        if (twins.contains(light.name)) view.twins[light.name] = (root / twins[light.name].get<std::string>()).string();
+        if (listed.contains(light.name)) (*paths)[light.name] = (root / listed[light.name].get<std::string>()).string();
       }
     }
     std::vector<std::string> files = {view.alpha};
     for (const auto& [name, path] : view.images) files.push_back(path);
     for (const auto& [name, path] : view.twins) files.push_back(path);
+    for (const auto& [name, path] : view.halves) files.push_back(path);
     for (const std::string& file : files) {
       RELIT_REQUIRE(fs::exists(file), "ground-truth image ", file, " is missing (listed in ", truth_json,
                     " for view ", view.name, "); re-render the capture with relit-synth");
@@ -167,23 +169,29 @@ EvalImageResult ResultFor(const TruthView& view, const TruthLight& light, const 
   return r;
 }
 
-// The truth's own noise: its twin (same image, independent seed) scored as a
-// method would be. The pair's difference holds both renders' noise, twice
-// one render's variance, so the floor is half the pair's MSE: the score a
-// perfect prediction of the converged image would get against this truth.
+// The truth's own noise, scored as a method would be: the score a perfect
+// prediction of the converged image gets against this truth. From a twin
+// (same image, independent seed) the pair's difference holds twice one
+// render's variance, so the floor is half the pair's MSE. From a half (the
+// image is the mean of it and an independent other half) the difference
+// to the image is half the halves' difference, whose MSE is the image's own
+// noise variance: the floor is that MSE as it is.
 EvalImageResult TruthNoiseFloor(const TruthView& view, const TruthLight& light, const Image& reference,
                                 const Image& matte, const TruthEvalSet& truth, double clip_radiance) {
-  const std::string& path = view.twins.at(light.name);
-  Image twin = ReadImage(path);
-  RELIT_REQUIRE(twin.channels() >= 3, path, " has ", twin.channels(), " channels, expected RGB");
-  RequireSize(twin, truth.intrinsics, path);
-  twin = Scaled(twin.SelectChannels(std::vector<int>{0, 1, 2}), truth.exposure);
-  ClipRadiance(&twin, clip_radiance);
-  const Image premultiplied = PremultipliedByMatte(twin, matte);
+  const bool from_half = view.halves.count(light.name) > 0;
+  const std::string& path = from_half ? view.halves.at(light.name) : view.twins.at(light.name);
+  Image other = ReadImage(path);
+  RELIT_REQUIRE(other.channels() >= 3, path, " has ", other.channels(), " channels, expected RGB");
+  RequireSize(other, truth.intrinsics, path);
+  other = Scaled(other.SelectChannels(std::vector<int>{0, 1, 2}), truth.exposure);
+  ClipRadiance(&other, clip_radiance);
+  const Image premultiplied = PremultipliedByMatte(other, matte);
   EvalImageResult r = ResultFor(view, light, kTruthNoiseFloor);
   r.metrics = CompareToReference(premultiplied, reference, matte);
-  r.metrics.mse /= 2;
-  r.metrics.mae /= std::sqrt(2.0);
+  if (!from_half) {
+    r.metrics.mse /= 2;
+    r.metrics.mae /= std::sqrt(2.0);
+  }
   r.metrics.psnr_db = r.metrics.mse > 0 ? 10 * std::log10(1 / r.metrics.mse) : 99;
   r.ssim = ForegroundSsim(premultiplied, reference, matte);
   return r;
@@ -351,7 +359,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
         auto timer = record.Time("cues");
         cues = RenderCueFrame(*scene, camera, ToCueLight(light, unit_factor), light_settings, format);
       }
-      if (view.twins.count(light.name) > 0) {
+      if (view.twins.count(light.name) > 0 || view.halves.count(light.name) > 0) {
         floors.push_back(TruthNoiseFloor(view, light, reference, matte, truth, options.clip_radiance));
       }
       const std::string stem = light.name;
@@ -433,8 +441,8 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
       {"zoom_pngs", zooms},
       {"options", OptionsToJson(options)},
       {"timings_s", record.ToJson()["timings_s"]}};
-  if (floors.empty()) spdlog::warn("eval: {} lists no noise twins of its images: the truth's noise floor is not measured "
-                                   "(render the capture with a relit-synth that writes them, eval_noise_twin: true)",
+  if (floors.empty()) spdlog::warn("eval: {} lists no noise halves or twins of its images: the truth's noise floor is not "
+                                   "measured (render the capture with relit-synth's eval_noise_halves: true)",
                                    truth_json);
   WriteEvalReport(out.path().string(), results, methods, header, floors);
   record.Set("images", static_cast<int>(view_count * truth.lights.size()));

@@ -94,9 +94,12 @@ struct TruthView {
   Rigid3 cam_from_world;
   std::string alpha;                // absolute path
   std::map<std::string, std::string> images;  // light name -> absolute path
-  // light name -> a second render with an independent seed (truth.json
-  // "images_twin"; absent in older captures): the truth's noise floor.
+  // The truth's noise floor, from one of two renders per image (absent in
+  // older captures): light name -> a second render with an independent seed
+  // (truth.json "images_twin"), or one of the two independent halves whose
+  // mean is the image ("images_half").
   std::map<std::string, std::string> twins;
+  std::map<std::string, std::string> halves;
   double min_angle_to_training_rad = 0;
   // "interpolation" (on phone V's path between its frames) or "extrapolation"
   // (away from it; truth files without "set" held only these).

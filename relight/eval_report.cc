@@ -274,8 +274,8 @@ void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResu
       per_image.push_back({{"view", r.view}, {"light", r.light}, {"psnr_db", r.metrics.psnr_db}});
     }
     header["truth_noise_floor"] = {
-        {"note", "the truth against its twin (independent seed), MSE halved: the score a perfect prediction of the "
-                 "converged image gets; claimed scores should stay >= 6 dB below it"},
+        {"note", "the truth against one of its two independent halves (or its twin, MSE halved): the score a perfect "
+                 "prediction of the converged image gets; claimed scores should stay >= 6 dB below it"},
         {"per_light_type", floor_rows},
         {"images", per_image}};
   }
@@ -337,10 +337,11 @@ void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResu
                       Pool(in_set, methods.front(), "all").images);
     AppendMethodTable(&md, in_set, floors_in_set, methods, types, clip);
   }
-  md += floors.empty() ? "\nTruth noise floor: not measured (the truth has no twin renders).\n"
-                       : "\nTruth noise floor: each eval image against a second render with an independent seed, MSE "
-                         "halved = the score a perfect prediction of the converged image would get. Scores within ~6 dB "
-                         "of it are limited by the truth's noise, not by the method.\n";
+  md += floors.empty() ? "\nTruth noise floor: not measured (the truth has no noise halves or twins).\n"
+                       : "\nTruth noise floor: the score a perfect prediction of the converged image would get against "
+                         "this truth (each eval image against one of the two independent halves it is the mean of, or "
+                         "against a twin render, MSE halved). Scores within ~6 dB of it are limited by the truth's "
+                         "noise, not by the method.\n";
   md += "\n## Per image (PSNR dB / MAE / SSIM)\n\n| view | light |";
   for (const std::string& m : methods) md += " " + m + " |";
   md += "\n|---|---|";

@@ -74,6 +74,7 @@ class EvalTest : public ::testing::Test {
     std::printf("%d training steps: %.1f s\n", kSteps, SecondsSince(start));
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
+  double NoiseFloorWithOffsetRenders(const std::string& key, const std::string& suffix);
   static constexpr int kSteps = 200;
   static std::string dir_, truth_;
 };
@@ -198,45 +199,62 @@ TEST_F(EvalTest, ClipRadianceClipsRenderAndTruth) {
   EXPECT_LT(clipped_mae, 0.3 * unclipped_mae);
 }
 
-// The truth's noise floor: twins listed in truth.json are scored against the
-// truth with the pair's MSE halved. A twin = truth + 0.02 everywhere (no clip)
-// differs by 0.02 x alpha on the foreground: floor ~ 10 log10(2 / 0.02^2) = 37 dB.
-TEST_F(EvalTest, TruthNoiseFloorFromTwinRenders) {
-  const std::string capture = dir_ + "/capture_twin";
+// The truth's noise floor from a second render of every image, listed in
+// truth.json under `key` with file suffix `suffix`: each = truth + 0.02
+// everywhere (no clip), so it differs by 0.02 x alpha on the foreground.
+// Returns eval's floor "all" in dB.
+double EvalTest::NoiseFloorWithOffsetRenders(const std::string& key, const std::string& suffix) {
+  const std::string capture = dir_ + "/capture_" + key;
   fs::remove_all(capture);
   fs::copy(fs::path(truth_).parent_path(), capture, fs::copy_options::recursive);
   const std::string truth = capture + "/truth.json";
   json j = ReadJsonFile(truth, synth::kTruthKind, synth::kTruthVersion);
-  int twins = 0;
+  int renders = 0;
   for (json& view : j["eval"]["views"]) {
     json listed = json::object();
     for (const auto& [light, path] : view["images"].items()) {
       Image image = ReadImage(capture + "/" + path.get<std::string>());
       for (float& v : image.data()) v += 0.02f;
-      const std::string twin = path.get<std::string>() + ".twin.exr";
-      WriteImage(capture + "/" + twin, image, PixelStorage::kFloat);
-      listed[light] = twin;
-      ++twins;
+      const std::string second = path.get<std::string>() + suffix;
+      WriteImage(capture + "/" + second, image, PixelStorage::kFloat);
+      listed[light] = second;
+      ++renders;
     }
-    view["images_twin"] = listed;
+    view[key] = listed;
   }
   WriteJsonFile(truth, synth::kTruthKind, synth::kTruthVersion, j);
-  const std::string config = dir_ + "/twin.yaml";
+  const std::string config = dir_ + "/" + key + ".yaml";
   std::ofstream(config) << "eval: {samples_per_pixel: 4, methods: [cues_only], write_images: false, clip_radiance: 0}\n";
-  const std::string out = dir_ + "/eval_twin";
-  ASSERT_EQ(RunCli({"relit-relight", "eval", "--workspace", dir_ + "/ws", "--config", config, "--truth", truth,
+  const std::string out = dir_ + "/eval_" + key;
+  EXPECT_EQ(RunCli({"relit-relight", "eval", "--workspace", dir_ + "/ws", "--config", config, "--truth", truth,
                     "--out", out, "--log-level", "warn"}),
             0);
   const json eval = ReadJsonFile(out + "/eval.json", "eval", 1);
-  ASSERT_TRUE(eval.contains("truth_noise_floor"));
-  EXPECT_EQ(static_cast<int>(eval["truth_noise_floor"]["images"].size()), twins);
-  const double floor_db = eval["truth_noise_floor"]["per_light_type"]["all"]["psnr_db"].get<double>();
-  std::printf("truth noise floor with a +0.02 twin: %.2f dB\n", floor_db);
-  EXPECT_GT(floor_db, 36.5);
-  EXPECT_LT(floor_db, 39.0);
+  EXPECT_TRUE(eval.contains("truth_noise_floor"));
+  if (!eval.contains("truth_noise_floor")) return 0;
+  EXPECT_EQ(static_cast<int>(eval["truth_noise_floor"]["images"].size()), renders);
   std::ifstream md(out + "/eval.md");
   const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("| truth noise floor |"), std::string::npos);
+  return eval["truth_noise_floor"]["per_light_type"]["all"]["psnr_db"].get<double>();
+}
+
+// A twin (independent render of the image): the pair's MSE halved,
+// ~ 10 log10(2 / 0.02^2) = 37 dB.
+TEST_F(EvalTest, TruthNoiseFloorFromTwinRenders) {
+  const double floor_db = NoiseFloorWithOffsetRenders("images_twin", ".twin.exr");
+  std::printf("truth noise floor with a +0.02 twin: %.2f dB\n", floor_db);
+  EXPECT_GT(floor_db, 36.5);
+  EXPECT_LT(floor_db, 39.0);
+}
+
+// A half (the image is its mean with another half): the half's difference to
+// the image is the image's own noise, MSE as it is: ~ 10 log10(1 / 0.02^2) = 34 dB.
+TEST_F(EvalTest, TruthNoiseFloorFromHalfRenders) {
+  const double floor_db = NoiseFloorWithOffsetRenders("images_half", ".half.exr");
+  std::printf("truth noise floor with a +0.02 half: %.2f dB\n", floor_db);
+  EXPECT_GT(floor_db, 33.5);
+  EXPECT_LT(floor_db, 36.0);
 }
 
 TEST(EvalErrors, MissingEvalImageIsNamed) {

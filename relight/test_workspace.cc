@@ -129,7 +129,7 @@ void MakeTestWorkspace(const std::string& dir, const TestWorkspaceOptions& o) {
 std::string WriteTestTruth(const std::string& dir, bool render_images, int width_px, int height_px) {
   synth::SynthOptions options = synth::SynthOptions::ForSize("tiny");  // as MakeTestWorkspace
   options.out = dir;
-  options.eval_noise_twin = false;  // one render per image here
+  options.eval_noise_halves = false;  // one render per image here
   const synth::SynthScene scene = synth::BuildScene("spot", options.board, synth::DefaultAssetsDir());
   synth::CapturePlan plan = synth::MakeCapturePlan(options, scene);
   plan.eval_intrinsics = plan.eval_intrinsics.Scaled(width_px, height_px);

@@ -245,6 +245,15 @@ render::RenderResult RenderEvalImage(const render::Scene& scene, const Camera& c
   return out;
 }
 
+// `into` becomes the mean of itself and `other` (radiance and alpha).
+void AverageInto(const render::RenderResult& other, render::RenderResult* into) {
+  for (Image* image : {&into->radiance, &into->alpha}) {
+    const Image& second = image == &into->radiance ? other.radiance : other.alpha;
+    RELIT_REQUIRE(second.data().size() == image->data().size(), "eval halves differ in size");
+    for (size_t i = 0; i < image->data().size(); ++i) image->data()[i] = 0.5f * (image->data()[i] + second.data()[i]);
+  }
+}
+
 int RenderEvalSet(const SynthOptions& o, const CapturePlan& plan, const SynthScene& synth_scene,
                   render::Scene* scene, const fs::path& root, Progress* progress) {
   const Image sky = render::MakeSkyMap(o.envmap_width_px, plan.sun_elevation_rad, plan.sun_azimuth_rad);
@@ -282,19 +291,23 @@ int RenderEvalSet(const SynthOptions& o, const CapturePlan& plan, const SynthSce
                                          FrameRenderOptions(o.eval_background_samples_per_pixel, o.max_depth,
                                                             SubSeed(o.seed, stream + 700000), alpha_ids));
       }
-      const render::RenderResult result = RenderEvalImage(
-          *scene, camera, box,
-          FrameRenderOptions(o.eval_samples_per_pixel, o.max_depth, SubSeed(o.seed, stream), alpha_ids),
+      // With noise halves: the mean of two independent renders at half the
+      // samples each, the first kept for eval's noise floor (the pair costs
+      // what one render at the full count does).
+      const int spp = o.eval_noise_halves ? (o.eval_samples_per_pixel + 1) / 2 : o.eval_samples_per_pixel;
+      render::RenderResult result = RenderEvalImage(
+          *scene, camera, box, FrameRenderOptions(spp, o.max_depth, SubSeed(o.seed, stream), alpha_ids),
           split ? &background : nullptr);
+      if (o.eval_noise_halves) {
+        WriteImage((root / EvalHalfImagePath(view.name, light.name)).string(), result.radiance, PixelStorage::kHalf);
+        const render::RenderResult second = RenderEvalImage(
+            *scene, camera, box,
+            FrameRenderOptions(spp, o.max_depth, SubSeed(o.seed, stream + 500000), alpha_ids),
+            split ? &background : nullptr);
+        AverageInto(second, &result);
+      }
       WriteImage((root / EvalImagePath(view.name, light.name)).string(), result.radiance,
                  PixelStorage::kHalf);
-      if (o.eval_noise_twin) {  // the foreground again with an independent seed: the truth's noise floor
-        const render::RenderResult twin = RenderEvalImage(
-            *scene, camera, box,
-            FrameRenderOptions(o.eval_samples_per_pixel, o.max_depth, SubSeed(o.seed, stream + 500000), alpha_ids),
-            split ? &background : nullptr);
-        WriteImage((root / EvalTwinImagePath(view.name, light.name)).string(), twin.radiance, PixelStorage::kHalf);
-      }
       if (l == 0) {
         WriteImage((root / EvalAlphaPath(view.name)).string(), AlphaChannel(result),
                    PixelStorage::kHalf);

@@ -121,9 +121,10 @@ struct SynthOptions {
   // Outside the box where the foreground projects (board, table: shown in
   // eval's images, never scored) eval images take this many samples.
   int eval_background_samples_per_pixel = 4;
-  // A second render of every eval image with an independent seed, so eval
-  // can measure the truth's own noise floor (relight.md, "Evaluation").
-  bool eval_noise_twin = true;
+  // Every eval image the mean of two independent renders at half the
+  // samples, one of them written beside it, so eval can measure the truth's
+  // own noise floor at no extra render cost (relight.md, "Evaluation").
+  bool eval_noise_halves = true;
   int eval_point_lights = 2;
   int eval_directional_lights = 2;
   int envmap_width_px = 512;

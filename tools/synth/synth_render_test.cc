@@ -351,9 +351,10 @@ TEST_F(SynthRenderTest, EvalSetIsComplete) {
       EXPECT_EQ(view["set"], "extrapolation");
       EXPECT_GE(view["min_angle_to_training_views_rad"].get<double>(), 10.0 * M_PI / 180 - 1e-9);
     }
-    // The noise twin (independent seed): same size, not the same pixels.
-    ASSERT_TRUE(view.contains("images_twin"));
-    for (const auto& [light, path] : view["images_twin"].items()) {
+    // The noise half (the image is its mean with an independent other half):
+    // same size, not the same pixels.
+    ASSERT_TRUE(view.contains("images_half"));
+    for (const auto& [light, path] : view["images_half"].items()) {
       const Image twin = ReadImage(Capture(path.get<std::string>()).string());
       const Image image = ReadImage(Capture(view["images"][light].get<std::string>()).string());
       ASSERT_EQ(twin.data().size(), image.data().size());
@@ -431,18 +432,19 @@ TEST_F(SynthRenderTest, EvalOnlyEqualsTheFullRunsEvalSet) {
 
 // Eval images take the eval samples only in the box where the foreground
 // projects (eval_background_samples_per_pixel elsewhere; tiny: 8 and 4):
-// there the noise twin has its own samples, outside it shares the
-// background's. So every foreground pixel differs between image and twin,
-// and the pixels that differ lie in a box smaller than the frame.
+// there the image's two noise halves have their own samples, outside they
+// share the background's. So every foreground pixel differs between the
+// image and its kept half, and the pixels that differ lie in a box smaller
+// than the frame.
 TEST_F(SynthRenderTest, EvalSamplesCoverTheForegroundAndSpareTheBackground) {
   size_t foreground = 0, foreground_differing = 0;
   double smallest_box_fraction = 1;
   for (const auto& view : (*truth_)["eval"]["views"]) {
     const Image alpha = ReadImage(Capture(view["alpha"].get<std::string>()).string());
-    int x0 = alpha.width(), y0 = alpha.height(), x1 = -1, y1 = -1;  // where image and twin differ
+    int x0 = alpha.width(), y0 = alpha.height(), x1 = -1, y1 = -1;  // where image and half differ
     for (const auto& [light, path] : view["images"].items()) {
       const Image image = ReadImage(Capture(path.get<std::string>()).string());
-      const Image twin = ReadImage(Capture(view["images_twin"][light].get<std::string>()).string());
+      const Image twin = ReadImage(Capture(view["images_half"][light].get<std::string>()).string());
       for (int y = 0; y < image.height(); ++y) {
         for (int x = 0; x < image.width(); ++x) {
           bool equal = true;
@@ -459,7 +461,9 @@ TEST_F(SynthRenderTest, EvalSamplesCoverTheForegroundAndSpareTheBackground) {
     smallest_box_fraction = std::min(smallest_box_fraction, box / (alpha.width() * alpha.height()));
   }
   ASSERT_GT(foreground, 1000u);
-  EXPECT_GE(foreground_differing, 0.99 * foreground) << "foreground pixels outside the eval-sample box";
+  // Not every one: at tiny's 4 spp per half, both halves of a pixel can agree
+  // to half-float precision (1.6 % of them do, shadowed ones mostly).
+  EXPECT_GE(foreground_differing, 0.97 * foreground) << "foreground pixels outside the eval-sample box";
   EXPECT_LT(smallest_box_fraction, 0.9) << "the background took the eval samples too";
 }
 

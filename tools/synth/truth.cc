@@ -75,6 +75,10 @@ std::string EvalTwinImagePath(const std::string& view, const std::string& light)
   return "eval/" + view + "/" + light + ".twin.exr";
 }
 
+std::string EvalHalfImagePath(const std::string& view, const std::string& light) {
+  return "eval/" + view + "/" + light + ".half.exr";
+}
+
 std::string EvalAlphaPath(const std::string& view) { return "eval/" + view + "/alpha.exr"; }
 std::string EnvmapPath(const std::string& name) { return "eval/envmaps/" + name + ".exr"; }
 std::string MeshPath(const std::string& object) { return "truth/meshes/" + object + ".obj"; }
@@ -231,10 +235,10 @@ nlohmann::json MakeTruthJson(const SynthOptions& o, const SynthScene& scene, con
   nlohmann::json views = nlohmann::json::array();
   for (const EvalView& view : plan.eval_views) {
     nlohmann::json images = nlohmann::json::object();
-    nlohmann::json twins = nlohmann::json::object();
+    nlohmann::json halves = nlohmann::json::object();
     for (const EvalLight& light : plan.eval_lights) {
       images[light.name] = EvalImagePath(view.name, light.name);
-      twins[light.name] = EvalTwinImagePath(view.name, light.name);
+      halves[light.name] = EvalHalfImagePath(view.name, light.name);
     }
     views.push_back({{"name", view.name},
                      {"cam_from_world", ToJson(view.cam_from_world)},
@@ -243,7 +247,7 @@ nlohmann::json MakeTruthJson(const SynthOptions& o, const SynthScene& scene, con
                      {"set", view.set},
                      {"alpha", EvalAlphaPath(view.name)},
                      {"images", images}});
-    if (o.eval_noise_twin) views.back()["images_twin"] = twins;
+    if (o.eval_noise_halves) views.back()["images_half"] = halves;
   }
   j["eval"] = {{"intrinsics", ToJson(plan.eval_intrinsics)},
                {"background_visible", true},

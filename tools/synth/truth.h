@@ -23,6 +23,7 @@ std::string BoardClipFolder(const std::string& phone);          // board_clip/<p
 std::string BoardClipFramePath(const std::string& phone, int frame);  // board_clip/<phone>/NNNNNN.png
 std::string EvalImagePath(const std::string& view, const std::string& light);  // eval/<view>/<light>.exr
 std::string EvalTwinImagePath(const std::string& view, const std::string& light);  // eval/<view>/<light>.twin.exr
+std::string EvalHalfImagePath(const std::string& view, const std::string& light);  // eval/<view>/<light>.half.exr
 std::string EvalAlphaPath(const std::string& view);           // eval/<view>/alpha.exr
 std::string EnvmapPath(const std::string& name);              // eval/envmaps/<name>.exr
 std::string MeshPath(const std::string& object);              // truth/meshes/<object>.obj
