@@ -36,6 +36,7 @@ ModelOptions ModelOptionsFromJson(const nlohmann::json& j_in, const std::string&
   if (j.is_object() && !j.contains("object_window_margin_px")) j["object_window_margin_px"] = 0;
   if (j.is_object() && !j.contains("mask_band_px")) j["mask_band_px"] = 0;  // alpha over the whole frame
   if (j.is_object() && !j.contains("mask_correction")) j["mask_correction"] = true;  // they hold a mask network
+  if (j.is_object() && !j.contains("output_blur_texels")) j["output_blur_texels"] = 0;  // rendered unblurred
   for (const char* key : {"input", "bases"}) {
     if (j.is_object() && j.contains(key)) {
       format[key] = j[key];
@@ -71,6 +72,7 @@ void SaveCheckpoint(const std::filesystem::path& dir, Trainer& trainer) {
   nlohmann::json body = {
       {"step", trainer.step()},
       {"clip_overshoot", trainer.clip_overshoot()},
+      {"output_blur_texels", trainer.model()->output_blur_texels()},
       {"model_options", OptionsToJson(trainer.model()->options())},
       {"train_options", OptionsToJson(trainer.train_options())},
       {"torch_version", TORCH_VERSION},
@@ -93,6 +95,12 @@ CheckpointInfo ReadCheckpointInfo(const std::filesystem::path& dir) {
     const nlohmann::json& lift = j["clip_overshoot"];
     RELIT_REQUIRE(lift.is_number() && lift.get<double>() >= 1, path, ": 'clip_overshoot' must be a number >= 1");
     info.clip_overshoot = lift.get<double>();
+  }
+  if (j.contains("output_blur_texels")) {  // absent before the output blur: none
+    const nlohmann::json& blur = j["output_blur_texels"];
+    RELIT_REQUIRE(blur.is_number() && blur.get<double>() >= 0, path,
+                  ": 'output_blur_texels' must be a number >= 0");
+    info.output_blur_texels = blur.get<double>();
   }
   info.model_options = ModelOptionsFromJson(JsonField(j, "model_options", path), path + " model_options");
   info.train_options = TrainOptionsFromJson(JsonField(j, "train_options", path), path + " train_options");
@@ -117,6 +125,7 @@ std::unique_ptr<Trainer> LoadTrainer(const std::filesystem::path& dir, const std
   });
   trainer->set_step(info.step);
   trainer->set_clip_overshoot(info.clip_overshoot);
+  trainer->model()->set_output_blur_texels(info.output_blur_texels);
   return trainer;
 }
 
@@ -126,6 +135,7 @@ DnlModel LoadModel(const std::filesystem::path& dir, const std::string& device) 
   DnlModel model(info.model_options);
   const auto model_path = dir / kModelFile;
   WithTorchErrors(model_path, "read", [&] { torch::load(model, model_path.string(), model->device()); });
+  model->set_output_blur_texels(info.output_blur_texels);
   return model;
 }
 

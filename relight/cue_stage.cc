@@ -247,6 +247,7 @@ CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions&
   CueRenderSettings settings;
   settings.samples_per_pixel = options.samples_per_pixel;
   settings.max_depth = options.max_depth;
+  settings.denoise = options.denoise;
   CueStageSummary summary;
   {
     auto timer = record.Time("render_cues");

@@ -82,6 +82,10 @@ Image TensorToImage(const torch::Tensor& chw, std::vector<std::string> names) {
 }
 
 Image RenderFrame(DnlModel& model, const Batch& batch) {
+  return TensorToImage(RenderFrameTensor(model, batch), {"R", "G", "B", "A"});
+}
+
+torch::Tensor RenderFrameTensor(DnlModel& model, const Batch& batch) {
   const int64_t h = batch.height(), w = batch.width();
   const int64_t pad_h = (4 - h % 4) % 4, pad_w = (4 - w % 4) % 4;
   Batch padded = batch;
@@ -98,8 +102,7 @@ Image RenderFrame(DnlModel& model, const Batch& batch) {
     padded.target_matte = torch::Tensor();
   }
   model->eval();
-  const auto rgba = model->Render(padded).slice(2, 0, h).slice(3, 0, w);
-  return TensorToImage(rgba, {"R", "G", "B", "A"});
+  return model->Render(padded).slice(2, 0, h).slice(3, 0, w);
 }
 
 }  // namespace relit::relight

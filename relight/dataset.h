@@ -38,6 +38,8 @@ std::vector<Batch> LoadValidationFrames(const std::string& workspace, const Plan
 // zero-padded to a multiple of 4 (the networks downsample twice) and the
 // result cropped back. Returns an Image with channels R, G, B, A.
 Image RenderFrame(DnlModel& model, const Batch& batch);
+// The same as a [1, 4, H, W] tensor.
+torch::Tensor RenderFrameTensor(DnlModel& model, const Batch& batch);
 
 // [1, C, H, W] float tensor -> Image with the given channel names.
 Image TensorToImage(const torch::Tensor& chw, std::vector<std::string> names);

@@ -95,6 +95,17 @@ struct ModelOptions {
   // Residual variant: the mask network corrects the coverage only within
   // this many pixels of it; alpha is 0 farther out (0 = everywhere).
   int mask_band_px = 8;
+  // Residual variant: Render's image is blurred by a Gaussian this wide, in
+  // texels of the texture (so the same on the object at any image scale; a
+  // texel is about 1 mm on the demo's cow), within the proxy's coverage
+  // (alpha stays the coverage). The proxy's position error puts detail
+  // about a pixel off at new views, and the expected image under that error
+  // is a blurred one (docs/relight.md, "Output blur"). -1 (auto): chosen
+  // after training on the held-out frames (train.json `output_blur`) from
+  // OutputBlurCandidates(): none where the proxy is right (true inputs),
+  // 1.5 texels on the demo. 0 = none (and checkpoints from before it).
+  double output_blur_texels = kAutoOutputBlur;
+  static constexpr double kAutoOutputBlur = -1.0;
   std::string upsampling = "transposed";  // "transposed" | "resize_conv"
   std::string norm = "instance";          // "instance" | "none" (both networks)
   // The renderer's last conv also sees its input (full-resolution skip).

@@ -1,6 +1,7 @@
 #include "relight/model.h"
 
 #include <ATen/CPUGeneratorImpl.h>
+#include <algorithm>
 #include <cmath>
 
 #include "core/error.h"
@@ -55,7 +56,59 @@ torch::Tensor CoverageOnlyLogit(const torch::Tensor& coverage) {
                       torch::where(coverage >= 1, torch::full_like(logit, 30.0), logit));
 }
 
+// A normalised 1-D Gaussian of `sigma` samples, radius ceil(3 sigma) (at most 24).
+torch::Tensor GaussianKernel(double sigma, const torch::TensorOptions& options) {
+  const int radius = std::clamp(static_cast<int>(std::ceil(3 * sigma)), 1, 24);
+  std::vector<float> weights(2 * radius + 1);
+  double sum = 0;
+  for (int i = -radius; i <= radius; ++i) sum += weights[i + radius] = std::exp(-0.5 * i * i / (sigma * sigma));
+  for (float& w : weights) w = static_cast<float>(w / sum);
+  return torch::tensor(weights, options);
+}
+
+// Separable Gaussian of every channel of x [1, C, H, W], zero outside.
+torch::Tensor GaussianBlur(const torch::Tensor& x, double sigma) {
+  const torch::Tensor k = GaussianKernel(sigma, x.options());
+  const int64_t c = x.size(1), n = k.size(0), radius = n / 2;
+  const auto across = F::conv2d(x, k.view({1, 1, 1, n}).expand({c, 1, 1, n}).contiguous(),
+                                F::Conv2dFuncOptions().padding({0, radius}).groups(c));
+  return F::conv2d(across, k.view({1, 1, n, 1}).expand({c, 1, n, 1}).contiguous(),
+                   F::Conv2dFuncOptions().padding({radius, 0}).groups(c));
+}
+
 }  // namespace
+
+const std::vector<double>& OutputBlurCandidates() {
+  static const std::vector<double> candidates = {0, 0.25, 0.5, 0.75, 1, 1.25, 1.5, 2, 3};
+  return candidates;
+}
+
+torch::Tensor BlurWithinCoverage(const torch::Tensor& rgba, const Batch& batch, double sigma_texels,
+                                 int64_t resolution) {
+  if (sigma_texels <= 0) return rgba;
+  torch::NoGradGuard no_grad;
+  const auto d = batch.uv_derivatives.to(rgba.options()) * static_cast<double>(resolution);  // [B, H, W, 4]
+  const auto along_x = torch::sqrt(d.select(3, 0).square() + d.select(3, 1).square());
+  const auto along_y = torch::sqrt(d.select(3, 2).square() + d.select(3, 3).square());
+  const auto footprint = torch::maximum(along_x, along_y);  // texels per pixel, [B, H, W]
+  const auto covered = batch.coverage.to(rgba.options()).select(1, 0) > 0.5;
+  std::vector<torch::Tensor> frames;
+  for (int64_t b = 0; b < rgba.size(0); ++b) {
+    const torch::Tensor frame = rgba.slice(0, b, b + 1);
+    const torch::Tensor rho = footprint[b].masked_select(covered[b]);
+    const double texels_per_px = rho.numel() > 0 ? rho.median().item<double>() : 0.0;
+    if (!(texels_per_px > 0) || !std::isfinite(texels_per_px)) {
+      frames.push_back(frame);
+      continue;
+    }
+    const double sigma_px = sigma_texels / texels_per_px;
+    const torch::Tensor rgb = frame.slice(1, 0, 3), alpha = frame.slice(1, 3, 4);
+    const torch::Tensor weight = GaussianBlur(alpha, sigma_px);
+    const torch::Tensor blurred = GaussianBlur(rgb, sigma_px) * alpha / weight.clamp_min(1e-6);
+    frames.push_back(torch::cat({torch::where(alpha > 0, blurred, rgb), alpha}, 1));
+  }
+  return torch::cat(frames, 0);
+}
 
 
 
@@ -155,6 +208,7 @@ DnlModelImpl::DnlModelImpl(const ModelOptions& options)
     regression_ = register_parameter("regression", torch::zeros({1, 3 * kBasisCount, r, r}));
     renderer_gate_ = register_parameter("renderer_gate", torch::zeros({1}));
     mask_gate_ = register_parameter("mask_gate", torch::zeros({1}));
+    output_blur_texels_ = std::max(0.0, options_.output_blur_texels);  // auto: none until chosen
   }
   to(device_);
 }
@@ -238,7 +292,15 @@ torch::Tensor DnlModelImpl::Render(const Batch& batch) {
   // every silhouette pixel by its coverage.
   const auto premultiply =
       options_.residual() ? (batch.coverage.to(alpha.options()) > 0).to(alpha.dtype()) : alpha;
-  return torch::cat({encoding_.Decode(output.rgb_log) * premultiply, alpha}, 1);
+  const torch::Tensor rgba = torch::cat({encoding_.Decode(output.rgb_log) * premultiply, alpha}, 1);
+  return options_.residual() ? BlurWithinCoverage(rgba, batch, output_blur_texels_, options_.texture_resolution_px)
+                             : rgba;
+}
+
+void DnlModelImpl::set_output_blur_texels(double sigma_texels) {
+  RELIT_REQUIRE(std::isfinite(sigma_texels) && sigma_texels >= 0, "output blur must be >= 0 texels, got ",
+                sigma_texels);
+  output_blur_texels_ = sigma_texels;
 }
 
 Trainer::Trainer(const ModelOptions& model_options, const TrainOptions& train_options)

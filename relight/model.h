@@ -78,6 +78,19 @@ Batch RandomCrop(const Batch& batch, int crop_px, at::Generator& generator);
 // receive the window's offset.
 Batch ObjectWindow(const Batch& batch, int margin_px, int64_t* top = nullptr, int64_t* left = nullptr);
 
+// `rgba` [B, 4, H, W] premultiplied (DnlModelImpl::Render's) with its colour
+// blurred by a Gaussian `sigma_texels` wide in texels of a `resolution`-texel
+// texture, within the object: rgb' = G*(rgb) alpha / G*(alpha), alpha as it
+// was. A frame's width in pixels is sigma_texels over the median texel
+// footprint (OpenGL's rho, from batch.uv_derivatives) of its covered
+// pixels; frames without covered pixels are returned as they are.
+torch::Tensor BlurWithinCoverage(const torch::Tensor& rgba, const Batch& batch, double sigma_texels,
+                                 int64_t resolution);
+
+// The output blur widths the train stage tries on the held-out frames
+// (ModelOptions::output_blur_texels -1), in texels.
+const std::vector<double>& OutputBlurCandidates();
+
 struct ModelOutput {
   torch::Tensor rgb_log;     // [B, 3, H, W] log-encoded RGB, in [-1, 1]
   torch::Tensor mask_logit;  // [B, 1, H, W]
@@ -106,6 +119,11 @@ class DnlModelImpl : public torch::nn::Module {
   // networks see only the object's window, as in training; outside it the
   // image is empty.
   torch::Tensor Render(const Batch& batch);
+  // Render's output blur in texels (ModelOptions::output_blur_texels): the
+  // fixed option, or the width chosen after training (checkpoint.json); 0 =
+  // none. Render without it: set 0.
+  double output_blur_texels() const { return output_blur_texels_; }
+  void set_output_blur_texels(double sigma_texels);
 
   const ModelOptions& options() const { return options_; }
   const torch::Device& device() const { return device_; }
@@ -128,6 +146,7 @@ class DnlModelImpl : public torch::nn::Module {
   ResnetGenerator renderer_{nullptr};
   ResnetGenerator mask_net_{nullptr};
   torch::Tensor regression_, renderer_gate_, mask_gate_;
+  double output_blur_texels_ = 0;
 };
 TORCH_MODULE(DnlModel);
 

@@ -127,6 +127,9 @@ RELIT_OPTION_FIELDS(ModelOptions,
     .Add("mask_band_px", &S::mask_band_px, 0, 4096,
          "residual variant: the mask network corrects the coverage only within this many pixels of it; "
          "alpha is 0 farther out (0 = everywhere, as checkpoints from before it)")
+    .Add("output_blur_texels", &S::output_blur_texels, ModelOptions::kAutoOutputBlur, 64.0,
+         "residual variant: Gaussian blur of the rendered colour within the coverage, in texels of the texture; "
+         "-1 = chosen on the held-out frames after training, 0 = none (\"Output blur\")")
     .Add("upsampling", &S::upsampling, {"transposed", "resize_conv"}, "the networks' upsampling")
     .Add("norm", &S::norm, {"instance", "none"}, "both networks' normalisation (DNL: instance)")
     .Add("input_skip", &S::input_skip,

@@ -10,6 +10,8 @@ namespace relit::relight {
 RELIT_OPTION_FIELDS(CueStageOptions,
     .Add("samples_per_pixel", &S::samples_per_pixel, 1, 1 << 16, "paths per pixel, shared by the bases")
     .Add("max_depth", &S::max_depth, 1, 64, "bounces (1 = direct light only)")
+    .Add("denoise", &S::denoise,
+         "filter the bounce light's path-tracing noise; the flash's direct light stays exact (\"Cue denoising\")")
     .Add("seed", &S::seed, "per-frame seeds derive from it")
     .Add("flash_intensity", &S::flash_intensity,
          "W/sr of the cue light (> 0); fixes the unit of rendered lights")

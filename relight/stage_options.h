@@ -18,6 +18,9 @@ namespace relit::relight {
 struct CueStageOptions {
   int samples_per_pixel = 16;   // per cue frame; the 5 bases share every path
   int max_depth = 4;            // bounces (global illumination); 1 = direct light only
+  // Filter the bounce light's path-tracing noise (the flash's direct light
+  // is exact and stays apart), as render.denoise_cues does for new lights.
+  bool denoise = false;
   uint64_t seed = 1;
   // Intensity (W/sr) of the point light the cues are rendered with. The
   // flash's true power is unknown; the networks learn the scale, so any

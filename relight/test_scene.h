@@ -132,6 +132,7 @@ inline ModelOptions TinyModelOptions() {
   options.mask_ngf = 4;
   options.mask_n_blocks = 1;
   options.max_radiance = 3.0;
+  options.output_blur_texels = 0;  // renders exactly what the fits predict (OutputBlurTest blurs)
   return options;
 }
 

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <limits>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -115,6 +116,42 @@ CorrectionChoice KeepHelpfulCorrections(DnlModel& model, const std::vector<Batch
   choice.renderer_kept = with_renderer.psnr_db > choice.without_renderer.psnr_db;
   if (choice.renderer_kept) gates[0].copy_(renderer_gate);
   choice.chosen = choice.renderer_kept ? with_renderer : choice.without_renderer;
+  return choice;
+}
+
+nlohmann::json OutputBlurChoice::ToJson() const {
+  nlohmann::json tried_json = nlohmann::json::array();
+  for (const auto& [sigma, m] : tried) tried_json.push_back({{"texels", sigma}, {"psnr_db", m.psnr_db}, {"mae", m.mae}});
+  return {{"chosen_texels", chosen_texels}, {"tried", tried_json}};
+}
+
+OutputBlurChoice ChooseOutputBlur(DnlModel& model, const std::vector<Batch>& validation) {
+  RELIT_REQUIRE(model->options().residual() && !validation.empty(),
+                "ChooseOutputBlur needs the residual model and validation frames");
+  torch::NoGradGuard no_grad;
+  model->set_output_blur_texels(0);
+  std::vector<torch::Tensor> renders;  // one network pass per frame; the blurs are applied to it
+  for (const Batch& frame : validation) renders.push_back(RenderFrameTensor(model, frame));
+  OutputBlurChoice choice;
+  double best_psnr = -std::numeric_limits<double>::infinity();
+  for (const double sigma : OutputBlurCandidates()) {
+    std::vector<ImageMetrics> metrics;
+    for (size_t i = 0; i < validation.size(); ++i) {
+      const Batch& frame = validation[i];
+      Image predicted = TensorToImage(
+          BlurWithinCoverage(renders[i], frame, sigma, model->options().texture_resolution_px), {"R", "G", "B", "A"});
+      Image target = TensorToImage(frame.target_rgb, {"R", "G", "B"});
+      ClipRadiance(&predicted, kCaptureWhiteLevel);
+      ClipRadiance(&target, kCaptureWhiteLevel);
+      metrics.push_back(CompareToReference(predicted, target, TensorToImage(frame.target_matte, {"A"})));
+    }
+    choice.tried.emplace_back(sigma, PoolMetrics(metrics));
+    if (choice.tried.back().second.psnr_db > best_psnr) {
+      best_psnr = choice.tried.back().second.psnr_db;
+      choice.chosen_texels = sigma;
+    }
+  }
+  model->set_output_blur_texels(choice.chosen_texels);
   return choice;
 }
 

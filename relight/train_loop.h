@@ -56,6 +56,16 @@ struct CorrectionChoice {
 };
 CorrectionChoice KeepHelpfulCorrections(DnlModel& model, const std::vector<Batch>& validation);
 
+// The residual model's output blur (ModelOptions::output_blur_texels -1):
+// each of OutputBlurCandidates() applied to the model's renders of the
+// held-out frames; the width with the best PSNR is set on the model.
+struct OutputBlurChoice {
+  double chosen_texels = 0;
+  std::vector<std::pair<double, ImageMetrics>> tried;  // width in texels, validation metrics
+  nlohmann::json ToJson() const;
+};
+OutputBlurChoice ChooseOutputBlur(DnlModel& model, const std::vector<Batch>& validation);
+
 // Keeps the log lines of steps <= `step` (the checkpoint a resumed run starts from).
 void TruncateLog(const std::filesystem::path& log, int64_t step);
 

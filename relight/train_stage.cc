@@ -193,6 +193,23 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
                  choice.without_renderer.psnr_db, choice.mask_kept ? "kept" : "off", choice.trained.alpha_mae,
                  choice.without_mask.alpha_mae);
   }
+  if (!loop.interrupted && model_options.residual() &&
+      model_options.output_blur_texels == ModelOptions::kAutoOutputBlur) {
+    if (validation.empty()) {
+      spdlog::warn("train: partition {} has no held-out frames (dataset.holdout_every 0): no output blur chosen",
+                   partition);
+    } else {
+      const double before = trainer->model()->output_blur_texels();
+      const OutputBlurChoice blur = ChooseOutputBlur(trainer->model(), validation);
+      if (blur.chosen_texels != before) SaveCheckpoint(checkpoint_dir, *trainer);
+      record.Set("output_blur", blur.ToJson());
+      for (const auto& [sigma, m] : blur.tried) {
+        if (sigma == blur.chosen_texels) result.val_psnr_db = m.psnr_db, result.val_mae = m.mae;
+      }
+      spdlog::info("train: partition {}: output blur {:.2f} texels (validation PSNR {:.2f} dB, {:.2f} without)",
+                   partition, blur.chosen_texels, result.val_psnr_db, blur.tried.front().second.psnr_db);
+    }
+  }
   if (loop.interrupted) {
     result.interrupted = true;
     spdlog::warn("train: partition {} stopped by signal {} at step {}; checkpoint saved, rerun to continue",

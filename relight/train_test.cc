@@ -524,6 +524,91 @@ TEST(CheckpointTest, OlderResidualCheckpointsKeepTheirMaskNetwork) {
   EXPECT_TRUE(torch::allclose(loaded->Render(frames[0]), trainer.model()->Render(frames[0])));
 }
 
+// The output blur: within the coverage, alpha untouched, a constant colour
+// kept to the rim, and its width in pixels the texels over the footprint.
+TEST(OutputBlurTest, BlursColourWithinTheCoverageByTexelsOverTheFootprint) {
+  const int size = 64;
+  Batch batch = testing::RandomBatch(size);
+  const float texels_per_px = 2.0f;
+  const int64_t resolution = 256;
+  batch.uv_derivatives = torch::tensor({texels_per_px / resolution, 0.0f, 0.0f, texels_per_px / resolution})
+                             .view({1, 1, 1, 4}).expand({1, size, size, 4}).contiguous();
+  const auto y = torch::arange(size).view({size, 1}).expand({size, size}).to(torch::kFloat) - 31.5f;
+  const auto x = torch::arange(size).view({1, size}).expand({size, size}).to(torch::kFloat) - 31.5f;
+  const auto inside = ((x * x + y * y) < 25.0f * 25.0f).to(torch::kFloat).view({1, 1, size, size});
+  batch.coverage = inside;
+  // A constant colour over the disc: the blur keeps it, alpha and the outside stay.
+  const auto colour = torch::tensor({0.2f, 0.5f, 0.9f}).view({1, 3, 1, 1});
+  const auto flat = torch::cat({colour * inside, inside}, 1);
+  const auto flat_blurred = BlurWithinCoverage(flat, batch, 4.0, resolution);
+  EXPECT_TRUE(torch::allclose(flat_blurred, flat, 1e-5, 1e-5));
+  EXPECT_TRUE(torch::equal(BlurWithinCoverage(flat, batch, 0.0, resolution), flat));
+  // An impulse in the middle spreads as a Gaussian of 4 / 2 = 2 pixels.
+  auto impulse = torch::cat({torch::zeros({1, 3, size, size}), inside}, 1);
+  impulse[0][0][32][32] = 1.0f;
+  const auto spread = BlurWithinCoverage(impulse, batch, 4.0, resolution)[0][0];
+  const double mass = spread.sum().item<double>();
+  const double variance_px2 = ((x + 31.5f - 32.0f).square() * spread).sum().item<double>() / mass;
+  EXPECT_NEAR(mass, 1.0, 1e-3);
+  EXPECT_NEAR(std::sqrt(variance_px2), 2.0, 0.05);
+  // Half the footprint (an image twice as large on the object): twice the pixels.
+  Batch finer = batch;
+  finer.uv_derivatives = batch.uv_derivatives * 0.5f;
+  const auto wider = BlurWithinCoverage(impulse, finer, 4.0, resolution)[0][0];
+  const double wider_variance = ((x + 31.5f - 32.0f).square() * wider).sum().item<double>() / wider.sum().item<double>();
+  EXPECT_NEAR(std::sqrt(wider_variance), 4.0, 0.1);
+  EXPECT_TRUE(torch::equal(BlurWithinCoverage(impulse, batch, 4.0, resolution).slice(1, 3, 4), inside));
+}
+
+// ChooseOutputBlur on held-out frames: none when the targets are as sharp as
+// the renders, about the targets' own blur when they are blurred.
+TEST(OutputBlurTest, ChoosesTheBlurOfTheHeldOutTargets) {
+  std::vector<Batch> frames = Frames(3, 48, 21);
+  ModelOptions model_options = testing::TinyModelOptions();
+  model_options.max_radiance = MaxRadiance(frames);
+  model_options.object_window_margin_px = 0;
+  TrainOptions train_options;
+  train_options.threads = 1;
+  Trainer trainer(model_options, train_options);
+  WarmStartCueRegression(trainer.model(), frames, train_options.cue_fit);
+  std::vector<Batch> sharp, blurred;
+  for (const Batch& frame : frames) {
+    Batch target = frame;
+    target.target_rgb = RenderFrameTensor(trainer.model(), frame).slice(1, 0, 3).clone();
+    sharp.push_back(target);
+    target.target_rgb = BlurWithinCoverage(RenderFrameTensor(trainer.model(), frame), frame, 1.0,
+                                           model_options.texture_resolution_px).slice(1, 0, 3).clone();
+    blurred.push_back(target);
+  }
+  const OutputBlurChoice none = ChooseOutputBlur(trainer.model(), sharp);
+  EXPECT_EQ(none.chosen_texels, 0.0);
+  EXPECT_EQ(none.tried.size(), OutputBlurCandidates().size());
+  const OutputBlurChoice some = ChooseOutputBlur(trainer.model(), blurred);
+  std::printf("output blur chosen for targets blurred by 1 texel: %.2f\n", some.chosen_texels);
+  EXPECT_EQ(some.chosen_texels, 1.0);
+  EXPECT_EQ(trainer.model()->output_blur_texels(), 1.0);
+}
+
+// The chosen blur travels with the checkpoint; older checkpoints render unblurred.
+TEST(CheckpointTest, KeepsTheOutputBlurAndOlderOnesHaveNone) {
+  TempDir dir;
+  std::vector<Batch> frames = Frames(2, 32, 21);
+  ModelOptions model_options = testing::TinyModelOptions();
+  model_options.max_radiance = MaxRadiance(frames);
+  Trainer trainer(model_options, TrainOptions());
+  trainer.model()->set_output_blur_texels(0.75);
+  const fs::path checkpoint = dir.path() / "checkpoint";
+  SaveCheckpoint(checkpoint, trainer);
+  EXPECT_EQ(LoadModel(checkpoint)->output_blur_texels(), 0.75);
+  EXPECT_EQ(LoadTrainer(checkpoint)->model()->output_blur_texels(), 0.75);
+  const fs::path info_path = checkpoint / "checkpoint.json";
+  nlohmann::json info = nlohmann::json::parse(std::ifstream(info_path));
+  info.erase("output_blur_texels");
+  info["model_options"].erase("output_blur_texels");
+  std::ofstream(info_path) << info.dump(2);
+  EXPECT_EQ(LoadModel(checkpoint)->output_blur_texels(), 0.0);
+}
+
 TEST(CheckpointTest, OptionsRoundTripThroughYaml) {
   ModelOptions model_options;
   model_options.ngf = 48;
