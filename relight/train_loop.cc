@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "core/atomic_output.h"
 #include "core/error.h"
@@ -122,28 +123,78 @@ CorrectionChoice KeepHelpfulCorrections(DnlModel& model, const std::vector<Batch
 nlohmann::json OutputBlurChoice::ToJson() const {
   nlohmann::json tried_json = nlohmann::json::array();
   for (const auto& [sigma, m] : tried) tried_json.push_back({{"texels", sigma}, {"psnr_db", m.psnr_db}, {"mae", m.mae}});
-  return {{"chosen_texels", chosen_texels}, {"tried", tried_json}};
+  return {{"chosen_texels", chosen_texels}, {"tried", tried_json}, {"frame_shift_px_median", median_shift_px}};
 }
+
+namespace {
+
+// x [1, C, H, W] with its content moved by (dx, dy) pixels (x right, y
+// down): bicubic, zero outside (the frame's border is far from the object).
+torch::Tensor Shifted(const torch::Tensor& x, double dx, double dy) {
+  if (dx == 0 && dy == 0) return x;
+  const int64_t h = x.size(2), w = x.size(3);
+  const auto options = x.options();
+  // Normalised coordinates (align_corners false) of the source of each pixel.
+  const auto xs = (torch::arange(w, options) + 0.5 - dx) * (2.0 / w) - 1.0;
+  const auto ys = (torch::arange(h, options) + 0.5 - dy) * (2.0 / h) - 1.0;
+  const auto grid = torch::stack({xs.view({1, w}).expand({h, w}), ys.view({h, 1}).expand({h, w})}, -1).unsqueeze(0);
+  // at::grid_sampler's modes: interpolation 2 = bicubic, padding 0 = zeros.
+  return torch::grid_sampler(x, grid, /*interpolation_mode=*/2, /*padding_mode=*/0, /*align_corners=*/false);
+}
+
+cv::Mat Luminance(const torch::Tensor& rgb, int64_t top, int64_t left, int64_t height, int64_t width) {
+  const auto crop = rgb.slice(2, top, top + height).slice(3, left, left + width).mean(1)[0].contiguous().to(torch::kFloat);
+  return cv::Mat(static_cast<int>(height), static_cast<int>(width), CV_32F, crop.data_ptr<float>()).clone();
+}
+
+// How far the held-out frame's image sits from the model's render of it,
+// over the object's window (phase correlation of the luminances): its
+// calibrated pose's error, which new views do not have. Zero when the
+// estimate is beyond max_px (no reliable peak).
+cv::Point2d FrameShift(const torch::Tensor& render, const Batch& frame, double max_px = 2.0) {
+  int64_t top = 0, left = 0;
+  const Batch window = ObjectWindow(frame, 8, &top, &left);
+  if (window.height() < 16 || window.width() < 16) return {0, 0};
+  const cv::Mat rendered = Luminance(render.slice(1, 0, 3), top, left, window.height(), window.width());
+  const cv::Mat photo = Luminance(frame.target_rgb * frame.target_matte, top, left, window.height(), window.width());
+  cv::Mat hann;
+  cv::createHanningWindow(hann, rendered.size(), CV_32F);
+  const cv::Point2d shift = cv::phaseCorrelate(rendered, photo, hann);
+  return std::hypot(shift.x, shift.y) <= max_px ? shift : cv::Point2d(0, 0);
+}
+
+}  // namespace
 
 OutputBlurChoice ChooseOutputBlur(DnlModel& model, const std::vector<Batch>& validation) {
   RELIT_REQUIRE(model->options().residual() && !validation.empty(),
                 "ChooseOutputBlur needs the residual model and validation frames");
   torch::NoGradGuard no_grad;
   model->set_output_blur_texels(0);
-  std::vector<torch::Tensor> renders;  // one network pass per frame; the blurs are applied to it
-  for (const Batch& frame : validation) renders.push_back(RenderFrameTensor(model, frame));
+  // One network pass per frame; the blurs are applied to it. Each render is
+  // first moved onto its held-out photo by the frame's shift, so that the
+  // blur answers for the proxy's error and not for the frame's pose.
+  std::vector<torch::Tensor> renders;
+  std::vector<double> shifts;
+  for (const Batch& frame : validation) {
+    const torch::Tensor render = RenderFrameTensor(model, frame);
+    const cv::Point2d shift = FrameShift(render, frame);
+    shifts.push_back(std::hypot(shift.x, shift.y));
+    renders.push_back(Shifted(render, shift.x, shift.y).clamp_min(0));
+  }
   OutputBlurChoice choice;
+  std::nth_element(shifts.begin(), shifts.begin() + shifts.size() / 2, shifts.end());
+  choice.median_shift_px = shifts[shifts.size() / 2];
   double best_psnr = -std::numeric_limits<double>::infinity();
   for (const double sigma : OutputBlurCandidates()) {
     std::vector<ImageMetrics> metrics;
     for (size_t i = 0; i < validation.size(); ++i) {
-      const Batch& frame = validation[i];
       Image predicted = TensorToImage(
-          BlurWithinCoverage(renders[i], frame, sigma, model->options().texture_resolution_px), {"R", "G", "B", "A"});
-      Image target = TensorToImage(frame.target_rgb, {"R", "G", "B"});
+          BlurWithinCoverage(renders[i], validation[i], sigma, model->options().texture_resolution_px),
+          {"R", "G", "B", "A"});
+      Image target = TensorToImage(validation[i].target_rgb, {"R", "G", "B"});
       ClipRadiance(&predicted, kCaptureWhiteLevel);
       ClipRadiance(&target, kCaptureWhiteLevel);
-      metrics.push_back(CompareToReference(predicted, target, TensorToImage(frame.target_matte, {"A"})));
+      metrics.push_back(CompareToReference(predicted, target, TensorToImage(validation[i].target_matte, {"A"})));
     }
     choice.tried.emplace_back(sigma, PoolMetrics(metrics));
     if (choice.tried.back().second.psnr_db > best_psnr) {

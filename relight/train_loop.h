@@ -58,9 +58,13 @@ CorrectionChoice KeepHelpfulCorrections(DnlModel& model, const std::vector<Batch
 
 // The residual model's output blur (ModelOptions::output_blur_texels -1):
 // each of OutputBlurCandidates() applied to the model's renders of the
-// held-out frames; the width with the best PSNR is set on the model.
+// held-out frames; the width with the best PSNR is set on the model. Each
+// held-out photo is first moved onto the render by the shift phase
+// correlation finds over the object (its calibrated pose's error, which
+// new views do not have).
 struct OutputBlurChoice {
   double chosen_texels = 0;
+  double median_shift_px = 0;  // of the held-out photos onto the renders
   std::vector<std::pair<double, ImageMetrics>> tried;  // width in texels, validation metrics
   nlohmann::json ToJson() const;
 };

@@ -587,6 +587,21 @@ TEST(OutputBlurTest, ChoosesTheBlurOfTheHeldOutTargets) {
   std::printf("output blur chosen for targets blurred by 1 texel: %.2f\n", some.chosen_texels);
   EXPECT_EQ(some.chosen_texels, 1.0);
   EXPECT_EQ(trainer.model()->output_blur_texels(), 1.0);
+  // The same photos a pixel off (their frames' pose error): the renders
+  // moved onto them first, the choice is the same, not a wider blur that
+  // would absorb the shift.
+  std::vector<Batch> shifted = blurred;
+  for (Batch& frame : shifted) {
+    frame.target_rgb = torch::roll(frame.target_rgb, {1}, {3});
+    frame.target_matte = torch::roll(frame.target_matte, {1}, {3});
+  }
+  const OutputBlurChoice moved = ChooseOutputBlur(trainer.model(), shifted);
+  std::printf("photos 1 px off: shift found %.2f px, output blur %.2f texels\n", moved.median_shift_px,
+              moved.chosen_texels);
+  for (const auto& [sigma, m] : moved.tried) std::printf("  %.2f texels: %.2f dB\n", sigma, m.psnr_db);
+  for (const auto& [sigma, m] : some.tried) std::printf("  unshifted %.2f texels: %.2f dB\n", sigma, m.psnr_db);
+  EXPECT_NEAR(moved.median_shift_px, 1.0, 0.2);  // phase correlation on 48-px frames reads 0.86
+  EXPECT_EQ(moved.chosen_texels, 1.0);
 }
 
 // The chosen blur travels with the checkpoint; older checkpoints render unblurred.
