@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <opencv2/imgproc.hpp>
+
 #include "core/error.h"
 #include "core/options.h"
 
@@ -56,14 +58,11 @@ torch::Tensor CoverageOnlyLogit(const torch::Tensor& coverage) {
                       torch::where(coverage >= 1, torch::full_like(logit, 30.0), logit));
 }
 
-// A normalised 1-D Gaussian of `sigma` samples, radius ceil(3 sigma) (at most 24).
+// A normalised 1-D Gaussian of `sigma` samples, radius ceil(3 sigma) (1 to 24).
 torch::Tensor GaussianKernel(double sigma, const torch::TensorOptions& options) {
   const int radius = std::clamp(static_cast<int>(std::ceil(3 * sigma)), 1, 24);
-  std::vector<float> weights(2 * radius + 1);
-  double sum = 0;
-  for (int i = -radius; i <= radius; ++i) sum += weights[i + radius] = std::exp(-0.5 * i * i / (sigma * sigma));
-  for (float& w : weights) w = static_cast<float>(w / sum);
-  return torch::tensor(weights, options);
+  cv::Mat kernel = cv::getGaussianKernel(2 * radius + 1, sigma, CV_32F);
+  return torch::from_blob(kernel.ptr<float>(), {kernel.rows}, torch::kFloat).clone().to(options);  // own the data
 }
 
 // Separable Gaussian of every channel of x [1, C, H, W], zero outside.

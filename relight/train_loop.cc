@@ -76,16 +76,30 @@ Batch Concatenate(const std::vector<const Batch*>& frames) {
   return batch;
 }
 
+namespace {
+
+// A held-out frame's photo (clipped at the capture's white level) and matte,
+// what a render of the frame is scored against.
+struct HeldOutPhoto {
+  Image target, matte;
+};
+
+HeldOutPhoto PhotoOf(const Batch& frame) {
+  HeldOutPhoto photo{TensorToImage(frame.target_rgb, {"R", "G", "B"}), TensorToImage(frame.target_matte, {"A"})};
+  ClipRadiance(&photo.target, kCaptureWhiteLevel);
+  return photo;
+}
+
+ImageMetrics Score(Image predicted, const HeldOutPhoto& photo) {
+  ClipRadiance(&predicted, kCaptureWhiteLevel);
+  return CompareToReference(predicted, photo.target, photo.matte);
+}
+
+}  // namespace
+
 ImageMetrics Validate(DnlModel& model, const std::vector<Batch>& frames) {
   std::vector<ImageMetrics> metrics;
-  for (const Batch& frame : frames) {
-    Image predicted = RenderFrame(model, frame);
-    Image target = TensorToImage(frame.target_rgb, {"R", "G", "B"});
-    ClipRadiance(&predicted, kCaptureWhiteLevel);
-    ClipRadiance(&target, kCaptureWhiteLevel);
-    const Image matte = TensorToImage(frame.target_matte, {"A"});
-    metrics.push_back(CompareToReference(predicted, target, matte));
-  }
+  for (const Batch& frame : frames) metrics.push_back(Score(RenderFrame(model, frame), PhotoOf(frame)));
   return PoolMetrics(metrics);
 }
 
@@ -173,35 +187,39 @@ OutputBlurChoice ChooseOutputBlur(DnlModel& model, const std::vector<Batch>& val
   // One network pass per frame; the blurs are applied to it. Each render is
   // first moved onto its held-out photo by the frame's shift, so that the
   // blur answers for the proxy's error and not for the frame's pose.
-  std::vector<torch::Tensor> renders;
+  const int64_t resolution = model->options().texture_resolution_px;
+  std::vector<torch::Tensor> renders, moved;
+  std::vector<HeldOutPhoto> photos;
   std::vector<double> shifts;
   for (const Batch& frame : validation) {
-    const torch::Tensor render = RenderFrameTensor(model, frame);
-    const cv::Point2d shift = FrameShift(render, frame);
+    renders.push_back(RenderFrameTensor(model, frame));
+    photos.push_back(PhotoOf(frame));
+    const cv::Point2d shift = FrameShift(renders.back(), frame);
     shifts.push_back(std::hypot(shift.x, shift.y));
-    renders.push_back(Shifted(render, shift.x, shift.y).clamp_min(0));
+    moved.push_back(Shifted(renders.back(), shift.x, shift.y).clamp_min(0));
   }
+  // The pooled score of `frames` (renders of the held-out frames) blurred by `sigma` texels.
+  const auto score = [&](const std::vector<torch::Tensor>& frames, double sigma) {
+    std::vector<ImageMetrics> metrics;
+    for (size_t i = 0; i < validation.size(); ++i) {
+      metrics.push_back(
+          Score(TensorToImage(BlurWithinCoverage(frames[i], validation[i], sigma, resolution), {"R", "G", "B", "A"}),
+                photos[i]));
+    }
+    return PoolMetrics(metrics);
+  };
   OutputBlurChoice choice;
   std::nth_element(shifts.begin(), shifts.begin() + shifts.size() / 2, shifts.end());
   choice.median_shift_px = shifts[shifts.size() / 2];
-  double best_psnr = -std::numeric_limits<double>::infinity();
+  choice.moved.psnr_db = -std::numeric_limits<double>::infinity();
   for (const double sigma : OutputBlurCandidates()) {
-    std::vector<ImageMetrics> metrics;
-    for (size_t i = 0; i < validation.size(); ++i) {
-      Image predicted = TensorToImage(
-          BlurWithinCoverage(renders[i], validation[i], sigma, model->options().texture_resolution_px),
-          {"R", "G", "B", "A"});
-      Image target = TensorToImage(validation[i].target_rgb, {"R", "G", "B"});
-      ClipRadiance(&predicted, kCaptureWhiteLevel);
-      ClipRadiance(&target, kCaptureWhiteLevel);
-      metrics.push_back(CompareToReference(predicted, target, TensorToImage(validation[i].target_matte, {"A"})));
-    }
-    choice.tried.emplace_back(sigma, PoolMetrics(metrics));
-    if (choice.tried.back().second.psnr_db > best_psnr) {
-      best_psnr = choice.tried.back().second.psnr_db;
+    choice.tried.emplace_back(sigma, score(moved, sigma));
+    if (choice.tried.back().second.psnr_db > choice.moved.psnr_db) {
+      choice.moved = choice.tried.back().second;
       choice.chosen_texels = sigma;
     }
   }
+  choice.unmoved = score(renders, choice.chosen_texels);
   model->set_output_blur_texels(choice.chosen_texels);
   return choice;
 }

@@ -65,7 +65,9 @@ CorrectionChoice KeepHelpfulCorrections(DnlModel& model, const std::vector<Batch
 struct OutputBlurChoice {
   double chosen_texels = 0;
   double median_shift_px = 0;  // of the held-out photos onto the renders
-  std::vector<std::pair<double, ImageMetrics>> tried;  // width in texels, validation metrics
+  std::vector<std::pair<double, ImageMetrics>> tried;  // width in texels, metrics on the moved frames
+  ImageMetrics moved;    // the chosen width's, on the moved frames
+  ImageMetrics unmoved;  // the chosen width's on the frames as they are (what Validate gives)
   nlohmann::json ToJson() const;
 };
 OutputBlurChoice ChooseOutputBlur(DnlModel& model, const std::vector<Batch>& validation);

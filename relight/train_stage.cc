@@ -205,18 +205,11 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
       record.Set("output_blur", blur.ToJson());
       // The choice compared renders moved onto their photos; the stage's
       // validation figure stays the model's own, as the user renders it.
-      const ImageMetrics chosen = Validate(trainer->model(), validation);
-      result.val_psnr_db = chosen.psnr_db;
-      result.val_mae = chosen.mae;
+      result.val_psnr_db = blur.unmoved.psnr_db;
+      result.val_mae = blur.unmoved.mae;
       spdlog::info("train: partition {}: output blur {:.2f} texels (validation PSNR {:.2f} dB; with the frames "
                    "moved onto their renders by {:.2f} px median, {:.2f} dB against {:.2f} without the blur)",
-                   partition, blur.chosen_texels, result.val_psnr_db, blur.median_shift_px,
-                   [&] {
-                     for (const auto& [sigma, m] : blur.tried) {
-                       if (sigma == blur.chosen_texels) return m.psnr_db;
-                     }
-                     return blur.tried.front().second.psnr_db;
-                   }(),
+                   partition, blur.chosen_texels, result.val_psnr_db, blur.median_shift_px, blur.moved.psnr_db,
                    blur.tried.front().second.psnr_db);
     }
   }
