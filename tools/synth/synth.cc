@@ -247,11 +247,12 @@ render::RenderResult RenderEvalImage(const render::Scene& scene, const Camera& c
 
 // `into` becomes the mean of itself and `other` (radiance and alpha).
 void AverageInto(const render::RenderResult& other, render::RenderResult* into) {
-  for (Image* image : {&into->radiance, &into->alpha}) {
-    const Image& second = image == &into->radiance ? other.radiance : other.alpha;
+  const auto average = [](const Image& second, Image* image) {
     RELIT_REQUIRE(second.data().size() == image->data().size(), "eval halves differ in size");
     for (size_t i = 0; i < image->data().size(); ++i) image->data()[i] = 0.5f * (image->data()[i] + second.data()[i]);
-  }
+  };
+  average(other.radiance, &into->radiance);
+  average(other.alpha, &into->alpha);
 }
 
 int RenderEvalSet(const SynthOptions& o, const CapturePlan& plan, const SynthScene& synth_scene,
