@@ -261,6 +261,7 @@ class MatteFrames {
     m.gt = undistorter_.Remap(calib::DisplayedTruthAlpha(
         (fs::path(o_.synth) / truth_frame.at("alpha").get<std::string>()).string(),
         calib::TruthDisplayRotation(truth_, "view"), lens.width, lens.height));
+    cv::min(m.gt, 1.0, m.gt);  // the resampling kernel overshoots at the rim
     ReadImage((ws_ / vm.trimap).string()).ToMat().convertTo(m.trimap, CV_8U, 255.0);
     if (m.trimap.channels() > 1) cv::extractChannel(m.trimap, m.trimap, 0);
     m.unknown = m.trimap == reconstruct::kTrimapUnknown;

@@ -278,7 +278,8 @@ CalibSummary RunCalibImpl(const CalibOptions& options) {
   }
   if (options.undistort.write_images) {
     auto timer = record.Time("undistort");
-    const FrameUndistorter undistorter(problem.devices.at("view"), cameras.undistorted_view);
+    const FrameUndistorter undistorter(problem.devices.at("view"), cameras.undistorted_view,
+                                       options.undistort.interpolation);
     Progress progress("undistort", static_cast<int64_t>(cameras.frames.size()));
     std::map<std::string, const CaptureFrame*> by_name;
     for (const CaptureFrame& c : input.view) by_name[c.name] = &c;

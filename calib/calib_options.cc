@@ -123,9 +123,13 @@ void LightOptions::Check() const {
   }
 }
 
+std::vector<std::string> UndistortInterpolationNames() { return {"cubic", "lanczos4", "linear"}; }
+
 RELIT_OPTION_FIELDS(UndistortOptions,
     .Add("alpha", &S::alpha, 0.0, 1.0,
          "0: only valid pixels (crops), 1: every source pixel (black borders)")
+    .Add("interpolation", &S::interpolation, UndistortInterpolationNames(),
+         "resampling of the undistorted frames; bilinear blurs them by up to half a pixel")
     .Add("write_images", &S::write_images, "write the undistorted frames"))
 
 RELIT_OPTION_FIELDS(CalibOptions,

@@ -182,10 +182,18 @@ struct LightOptions {
   void Check() const;  // flash_offset_m has 3 entries below 1 m
 };
 
+// UndistortOptions::interpolation's values (undistort.h maps them to OpenCV's).
+std::vector<std::string> UndistortInterpolationNames();
+
 struct UndistortOptions {
   // 0: the pinhole image only holds valid pixels (crops), 1: keeps every
   // source pixel (black borders). cv::getOptimalNewCameraMatrix's alpha.
   double alpha = 0.0;
+  // How the frames are resampled: "cubic" (default), "lanczos4" or
+  // "linear". Bilinear blurs by the fractional part of every source
+  // position (a variance of 1/6 px^2 on average), which the relit asset
+  // would learn as the object's own softness.
+  std::string interpolation = "cubic";
   bool write_images = true;
 
   static const OptionFields<UndistortOptions>& Fields();

@@ -534,5 +534,47 @@ TEST(UndistortTest, PinholeWithAlphaZeroOnlySeesValidPixels) {
   EXPECT_GT(PinholeFor(lens, 1.0).fx, 0.0);
 }
 
+// A fine pattern (period 4-5 px, below Nyquist) resampled into the pinhole
+// camera keeps its contrast with the cubic kernel; bilinear averages it
+// away by the fractional part of each source position.
+TEST(UndistortTest, CubicKeepsFineDetailThatBilinearBlurs) {
+  Intrinsics lens = Intrinsics::FromFov(320, 240, 67.0 * M_PI / 180);
+  lens.distortion = {0.09, -0.06, 0, 0, 0};
+  const Intrinsics pinhole = PinholeFor(lens, 0.0);
+  const auto pattern = [](double x, double y) {
+    return 0.5 + 0.4 * std::sin(2 * M_PI * x / 4.0) * std::sin(2 * M_PI * y / 5.0);
+  };
+  cv::Mat source(240, 320, CV_32F);
+  for (int y = 0; y < 240; ++y) {
+    for (int x = 0; x < 320; ++x) source.at<float>(y, x) = static_cast<float>(pattern(x, y));
+  }
+  cv::Mat map_x, map_y;
+  UndistortionMaps(lens, pinhole, &map_x, &map_y);
+  const auto rms_error = [&](const std::string& interpolation) {
+    const cv::Mat out = FrameUndistorter(lens, pinhole, interpolation).Remap(source);
+    double sum = 0;
+    int n = 0;
+    for (int y = 20; y < 220; ++y) {
+      for (int x = 20; x < 300; ++x, ++n) {
+        const double d = out.at<float>(y, x) - pattern(map_x.at<float>(y, x), map_y.at<float>(y, x));
+        sum += d * d;
+      }
+    }
+    return std::sqrt(sum / n);
+  };
+  const double linear = rms_error("linear"), cubic = rms_error("cubic"), lanczos = rms_error("lanczos4");
+  EXPECT_GT(linear, 0.05);  // measured 0.062 of the amplitude 0.4; cubic 0.005, lanczos4 0.004
+  EXPECT_LT(cubic, 0.5 * linear);
+  EXPECT_LT(lanczos, 0.5 * linear);
+  EXPECT_THROW(FrameUndistorter(lens, pinhole, "nearest"), Error);
+
+  // An edge: the cubic kernel's overshoot never makes radiance negative.
+  cv::Mat edge(240, 320, CV_32F, cv::Scalar(0));
+  edge.colRange(160, 320).setTo(1);
+  double lowest = 0;
+  cv::minMaxLoc(FrameUndistorter(lens, pinhole, "cubic").Remap(edge), &lowest);
+  EXPECT_GE(lowest, 0.0);
+}
+
 }  // namespace
 }  // namespace relit::calib

@@ -54,13 +54,29 @@ Intrinsics PinholeFor(const Intrinsics& distorted, double alpha) {
   return pinhole;
 }
 
-FrameUndistorter::FrameUndistorter(const Intrinsics& distorted, const Intrinsics& pinhole) {
+namespace {
+
+int OpenCvInterpolation(const std::string& name) {
+  if (name == "cubic") return cv::INTER_CUBIC;
+  if (name == "lanczos4") return cv::INTER_LANCZOS4;
+  if (name == "linear") return cv::INTER_LINEAR;
+  Fail("undistort.interpolation is '", name, "': use cubic, lanczos4 or linear");
+}
+
+}  // namespace
+
+FrameUndistorter::FrameUndistorter(const Intrinsics& distorted, const Intrinsics& pinhole,
+                                   const std::string& interpolation)
+    : interpolation_(OpenCvInterpolation(interpolation)) {
   UndistortionMaps(distorted, pinhole, &map_x_, &map_y_);
 }
 
 cv::Mat FrameUndistorter::Remap(const cv::Mat& image) const {
   cv::Mat out;
-  cv::remap(image, out, map_x_, map_y_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+  cv::remap(image, out, map_x_, map_y_, interpolation_, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+  // Cubic and Lanczos kernels overshoot at edges; radiance and coverage are
+  // never negative (8-bit images saturate by themselves).
+  if (out.depth() == CV_32F || out.depth() == CV_64F) out = cv::max(out, 0.0);
   return out;
 }
 

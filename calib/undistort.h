@@ -7,6 +7,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "calib/calib_options.h"
 #include "core/camera.h"
 
 namespace relit::calib {
@@ -18,10 +19,13 @@ Intrinsics PinholeFor(const Intrinsics& distorted, double alpha);
 
 class FrameUndistorter {
  public:
-  FrameUndistorter(const Intrinsics& distorted, const Intrinsics& pinhole);
+  // `interpolation`: one of UndistortInterpolationNames().
+  FrameUndistorter(const Intrinsics& distorted, const Intrinsics& pinhole,
+                   const std::string& interpolation = UndistortOptions().interpolation);
 
-  // Resamples a linear EXR (bilinear, in linear light) and an 8-bit sRGB
-  // image; writes both (parents created, files replaced atomically).
+  // Resamples a linear EXR (in linear light, overshoot below zero clipped)
+  // and an 8-bit sRGB image; writes both (parents created, files replaced
+  // atomically).
   void Run(const std::string& linear_in, const std::string& srgb_in, const std::string& linear_out,
            const std::string& srgb_out) const;
 
@@ -32,6 +36,7 @@ class FrameUndistorter {
 
  private:
   cv::Mat map_x_, map_y_;
+  int interpolation_;  // cv::InterpolationFlags
 };
 
 }  // namespace relit::calib
