@@ -102,8 +102,9 @@ struct ModelOptions {
   // about a pixel off at new views, and the expected image under that error
   // is a blurred one (docs/relight.md, "Output blur"). -1 (auto): chosen
   // after training on the held-out frames (train.json `output_blur`) from
-  // OutputBlurCandidates(): none where the proxy is right (true inputs),
-  // 1.5 texels on the demo. 0 = none (and checkpoints from before it).
+  // OutputBlurCandidates() by the one-standard-error rule: none where the
+  // proxy is right (true inputs), about 1 texel on the demo. 0 = none (and
+  // checkpoints from before it).
   double output_blur_texels = kAutoOutputBlur;
   static constexpr double kAutoOutputBlur = -1.0;
   std::string upsampling = "transposed";  // "transposed" | "resize_conv"

@@ -137,7 +137,10 @@ CorrectionChoice KeepHelpfulCorrections(DnlModel& model, const std::vector<Batch
 nlohmann::json OutputBlurChoice::ToJson() const {
   nlohmann::json tried_json = nlohmann::json::array();
   for (const auto& [sigma, m] : tried) tried_json.push_back({{"texels", sigma}, {"psnr_db", m.psnr_db}, {"mae", m.mae}});
-  return {{"chosen_texels", chosen_texels}, {"tried", tried_json}, {"frame_shift_px_median", median_shift_px}};
+  return {{"chosen_texels", chosen_texels},
+          {"best_texels", best_texels},
+          {"tried", tried_json},
+          {"frame_shift_px_median", median_shift_px}};
 }
 
 namespace {
@@ -179,6 +182,42 @@ cv::Point2d FrameShift(const torch::Tensor& render, const Batch& frame, double m
 
 }  // namespace
 
+size_t NarrowestWithinOneStandardError(const std::vector<std::vector<ImageMetrics>>& per_frame) {
+  RELIT_REQUIRE(!per_frame.empty() && !per_frame[0].empty(), "no candidates or no frames to choose from");
+  const size_t frames = per_frame[0].size();
+  int64_t pixels = 0;
+  for (const ImageMetrics& m : per_frame[0]) pixels += m.foreground_pixels;
+  // Frame f's share of candidate c's pooled MSE, times the number of frames:
+  // the pooled MSE is the mean of these over the frames.
+  const auto share = [&](size_t c, size_t f) {
+    return static_cast<double>(frames) * per_frame[c][f].mse * per_frame[c][f].foreground_pixels /
+           std::max<int64_t>(pixels, 1);
+  };
+  const auto pooled = [&](size_t c) {
+    double sum = 0;
+    for (size_t f = 0; f < frames; ++f) sum += share(c, f);
+    return sum / frames;
+  };
+  size_t best = 0;
+  for (size_t c = 1; c < per_frame.size(); ++c) {
+    if (pooled(c) < pooled(best)) best = c;
+  }
+  if (frames < 2) return best;
+  for (size_t c = 0; c < best; ++c) {
+    // Paired over the frames: how much worse c is than the best, and that
+    // difference's standard error.
+    double mean = 0, square = 0;
+    for (size_t f = 0; f < frames; ++f) {
+      const double d = share(c, f) - share(best, f);
+      mean += d, square += d * d;
+    }
+    mean /= frames;
+    const double variance = std::max(0.0, (square - frames * mean * mean) / (frames - 1));
+    if (mean <= std::sqrt(variance / frames)) return c;
+  }
+  return best;
+}
+
 OutputBlurChoice ChooseOutputBlur(DnlModel& model, const std::vector<Batch>& validation) {
   RELIT_REQUIRE(model->options().residual() && !validation.empty(),
                 "ChooseOutputBlur needs the residual model and validation frames");
@@ -198,7 +237,7 @@ OutputBlurChoice ChooseOutputBlur(DnlModel& model, const std::vector<Batch>& val
     shifts.push_back(std::hypot(shift.x, shift.y));
     moved.push_back(Shifted(renders.back(), shift.x, shift.y).clamp_min(0));
   }
-  // The pooled score of `frames` (renders of the held-out frames) blurred by `sigma` texels.
+  // The scores of `frames` (renders of the held-out frames) blurred by `sigma` texels, per frame.
   const auto score = [&](const std::vector<torch::Tensor>& frames, double sigma) {
     std::vector<ImageMetrics> metrics;
     for (size_t i = 0; i < validation.size(); ++i) {
@@ -206,20 +245,23 @@ OutputBlurChoice ChooseOutputBlur(DnlModel& model, const std::vector<Batch>& val
           Score(TensorToImage(BlurWithinCoverage(frames[i], validation[i], sigma, resolution), {"R", "G", "B", "A"}),
                 photos[i]));
     }
-    return PoolMetrics(metrics);
+    return metrics;
   };
   OutputBlurChoice choice;
   std::nth_element(shifts.begin(), shifts.begin() + shifts.size() / 2, shifts.end());
   choice.median_shift_px = shifts[shifts.size() / 2];
-  choice.moved.psnr_db = -std::numeric_limits<double>::infinity();
+  std::vector<std::vector<ImageMetrics>> per_frame;
   for (const double sigma : OutputBlurCandidates()) {
-    choice.tried.emplace_back(sigma, score(moved, sigma));
-    if (choice.tried.back().second.psnr_db > choice.moved.psnr_db) {
-      choice.moved = choice.tried.back().second;
-      choice.chosen_texels = sigma;
-    }
+    per_frame.push_back(score(moved, sigma));
+    choice.tried.emplace_back(sigma, PoolMetrics(per_frame.back()));
   }
-  choice.unmoved = score(renders, choice.chosen_texels);
+  const size_t chosen = NarrowestWithinOneStandardError(per_frame);
+  choice.chosen_texels = choice.tried[chosen].first;
+  choice.best_texels = std::min_element(choice.tried.begin(), choice.tried.end(), [](const auto& a, const auto& b) {
+                         return a.second.mse < b.second.mse;
+                       })->first;
+  choice.moved = choice.tried[chosen].second;
+  choice.unmoved = PoolMetrics(score(renders, choice.chosen_texels));
   model->set_output_blur_texels(choice.chosen_texels);
   return choice;
 }

@@ -58,12 +58,14 @@ CorrectionChoice KeepHelpfulCorrections(DnlModel& model, const std::vector<Batch
 
 // The residual model's output blur (ModelOptions::output_blur_texels -1):
 // each of OutputBlurCandidates() applied to the model's renders of the
-// held-out frames; the width with the best PSNR is set on the model. Each
-// held-out photo is first moved onto the render by the shift phase
-// correlation finds over the object (its calibrated pose's error, which
-// new views do not have).
+// held-out frames; the narrowest width whose pooled MSE is within one
+// standard error of the best one's is set on the model
+// (NarrowestWithinOneStandardError). Each held-out render is first moved
+// onto its photo by the shift phase correlation finds over the object (its
+// calibrated pose's error, which new views do not have).
 struct OutputBlurChoice {
   double chosen_texels = 0;
+  double best_texels = 0;  // the best pooled score's width (chosen_texels is at most it)
   double median_shift_px = 0;  // of the held-out photos onto the renders
   std::vector<std::pair<double, ImageMetrics>> tried;  // width in texels, metrics on the moved frames
   ImageMetrics moved;    // the chosen width's, on the moved frames
@@ -71,6 +73,16 @@ struct OutputBlurChoice {
   nlohmann::json ToJson() const;
 };
 OutputBlurChoice ChooseOutputBlur(DnlModel& model, const std::vector<Batch>& validation);
+
+// The one-standard-error rule of model selection (Breiman et al. 1984,
+// Hastie et al. "Elements of Statistical Learning" 7.10): per_frame[c][f]
+// scores candidate c (ordered from the simplest) on held-out frame f; the
+// first candidate whose pooled MSE exceeds the best one's by no more than
+// the standard error of that difference (paired over the frames). The
+// held-out curve of the output blur is flat near its best, and a few
+// dozen frames cannot tell those widths apart; the narrower one keeps
+// the detail.
+size_t NarrowestWithinOneStandardError(const std::vector<std::vector<ImageMetrics>>& per_frame);
 
 // Keeps the log lines of steps <= `step` (the checkpoint a resumed run starts from).
 void TruncateLog(const std::filesystem::path& log, int64_t step);

@@ -604,6 +604,34 @@ TEST(OutputBlurTest, ChoosesTheBlurOfTheHeldOutTargets) {
   EXPECT_EQ(moved.chosen_texels, 1.0);
 }
 
+// The one-standard-error rule: a narrower candidate whose excess over the
+// best is within the noise of the frames is taken; one that is worse on
+// every frame is not.
+TEST(OutputBlurTest, TakesTheNarrowestWidthWithinOneStandardError) {
+  const auto frame = [](double mse) {
+    ImageMetrics m;
+    m.mse = mse;
+    m.foreground_pixels = 100;
+    return m;
+  };
+  // Candidate 1 is the best pooled; 0 is worse on average but not on every frame.
+  const std::vector<std::vector<ImageMetrics>> noisy = {
+      {frame(1.10), frame(0.95), frame(1.12), frame(0.93)},
+      {frame(1.00), frame(1.00), frame(1.00), frame(1.00)},
+      {frame(1.20), frame(1.20), frame(1.20), frame(1.20)}};
+  EXPECT_EQ(NarrowestWithinOneStandardError(noisy), 0u);
+  // Candidate 0 worse by 5 % on every frame: beyond its (zero) standard error.
+  const std::vector<std::vector<ImageMetrics>> consistent = {
+      {frame(1.05), frame(1.05), frame(1.05), frame(1.05)},
+      {frame(1.00), frame(1.00), frame(1.00), frame(1.00)},
+      {frame(1.20), frame(1.20), frame(1.20), frame(1.20)}};
+  EXPECT_EQ(NarrowestWithinOneStandardError(consistent), 1u);
+  // Never wider than the best: candidate 2 ties 1 but comes after it.
+  const std::vector<std::vector<ImageMetrics>> tie = {
+      {frame(2.0), frame(2.0)}, {frame(1.0), frame(1.0)}, {frame(1.0), frame(1.0)}};
+  EXPECT_EQ(NarrowestWithinOneStandardError(tie), 1u);
+}
+
 // The chosen blur travels with the checkpoint; older checkpoints render unblurred.
 TEST(CheckpointTest, KeepsTheOutputBlurAndOlderOnesHaveNone) {
   TempDir dir;
