@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "core/image.h"
+#include "core/option_fields.h"
 
 namespace relit::calib {
 
@@ -60,7 +61,7 @@ int OpenCvInterpolation(const std::string& name) {
   if (name == "cubic") return cv::INTER_CUBIC;
   if (name == "lanczos4") return cv::INTER_LANCZOS4;
   if (name == "linear") return cv::INTER_LINEAR;
-  Fail("undistort.interpolation is '", name, "': use cubic, lanczos4 or linear");
+  Fail("undistort.interpolation: ", internal::ChoiceError(name, UndistortInterpolationNames()));
 }
 
 }  // namespace

@@ -187,20 +187,15 @@ size_t NarrowestWithinOneStandardError(const std::vector<std::vector<ImageMetric
   const size_t frames = per_frame[0].size();
   int64_t pixels = 0;
   for (const ImageMetrics& m : per_frame[0]) pixels += m.foreground_pixels;
-  // Frame f's share of candidate c's pooled MSE, times the number of frames:
-  // the pooled MSE is the mean of these over the frames.
+  // Frame f's share of candidate c's pooled MSE (PoolMetrics), times the
+  // number of frames: the pooled MSE is the mean of these over the frames.
   const auto share = [&](size_t c, size_t f) {
     return static_cast<double>(frames) * per_frame[c][f].mse * per_frame[c][f].foreground_pixels /
            std::max<int64_t>(pixels, 1);
   };
-  const auto pooled = [&](size_t c) {
-    double sum = 0;
-    for (size_t f = 0; f < frames; ++f) sum += share(c, f);
-    return sum / frames;
-  };
   size_t best = 0;
   for (size_t c = 1; c < per_frame.size(); ++c) {
-    if (pooled(c) < pooled(best)) best = c;
+    if (PoolMetrics(per_frame[c]).mse < PoolMetrics(per_frame[best]).mse) best = c;
   }
   if (frames < 2) return best;
   for (size_t c = 0; c < best; ++c) {
