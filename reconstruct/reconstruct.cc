@@ -30,6 +30,7 @@
 #include "reconstruct/light_views.h"
 #include "reconstruct/proxy_normals.h"
 #include "reconstruct/proxy_source.h"
+#include "reconstruct/silhouette_refine.h"
 #include "reconstruct/surface_photo_refine.h"
 #include "reconstruct/trimap.h"
 #include "reconstruct/uv_atlas.h"
@@ -56,6 +57,43 @@ std::vector<const CalibratedFrame*> UndistortedViewFrames(const CamerasFile& cam
   }
   RELIT_REQUIRE(!frames.empty(), "reconstruct: ", cameras_path, " has no phone V frame with an undistorted image");
   return frames;
+}
+
+// 1d. The proxy's outlines against the object's in the flash-lit phone V
+// frames (silhouette_refine.h); needs the flash positions.
+void RefineOutlines(const fs::path& workspace, const CamerasFile& cameras, const ReconstructOptions& options,
+                    RunRecord& record, render::TriangleMesh* proxy, nlohmann::json* report) {
+  const SilhouetteOptions& silhouette = options.refine.silhouette;
+  if (!silhouette.enabled || silhouette.rounds == 0) return;
+  const fs::path lights_path = workspace / "calib" / "lights.json";
+  if (!fs::exists(lights_path)) {
+    spdlog::info("silhouette refine: {} is missing (no flash positions); skipped", lights_path.string());
+    (*report)["refine_silhouette"] = {{"skipped", "no calib/lights.json"}};
+    return;
+  }
+  record.AddInput("lights", lights_path.string());
+  const LightsFile lights = ReadLightsFile(lights_path.string());
+  std::vector<SilhouetteView> views;
+  for (const CalibratedFrame* frame : cameras.FramesOf("view")) {
+    const FrameLight* light = lights.Find(frame->name);
+    if (light == nullptr || !light->reliable || frame->image_linear.empty()) continue;
+    const std::string path = (workspace / frame->image_linear).string();
+    views.push_back({cameras.ViewCamera(*frame), light->position_m, [path] { return ReadImage(path); }});
+  }
+  if (views.empty()) {
+    spdlog::info("silhouette refine: no phone V frame with a reliable flash position; skipped");
+    (*report)["refine_silhouette"] = {{"skipped", "no phone V frame with a reliable flash position"}};
+    return;
+  }
+  auto timer = record.Time("refine_silhouette");
+  SilhouetteReport silhouette_report;
+  *proxy = RefineSilhouettes(*proxy, views, BoardPrint(cameras.board), silhouette, options.cleanup.crop_margin_m,
+                             &silhouette_report);
+  if (options.cleanup.remove_self_intersections) {
+    silhouette_report.self_intersection_faces_replaced =
+        RemoveSelfIntersections(proxy, options.cleanup.self_intersection_rounds);
+  }
+  (*report)["refine_silhouette"] = silhouette_report.ToJson();
 }
 
 // 1. The proxy mesh: loaded, or built from the images; cleaned up, then
@@ -119,6 +157,7 @@ render::TriangleMesh BuildProxy(const fs::path& workspace, const CamerasFile& ca
     }
     (*report)["refine_photometric"] = photo_report.ToJson();
   }
+  RefineOutlines(workspace, cameras, options, record, &proxy, report);
   return proxy;
 }
 

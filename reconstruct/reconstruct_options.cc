@@ -160,6 +160,22 @@ RELIT_OPTION_FIELDS(SurfacePhotoOptions,
     .Add("light_frames", &S::light_frames,
          "phone L's registered frames (flash-lit from their own lens, other viewpoints) vote beside phone V's"))
 
+RELIT_OPTION_FIELDS(SilhouetteOptions,
+    .Add("enabled", &S::enabled,
+         "move the proxy's rim so that its outline meets the object's outline fitted against the board's print")
+    .Add("rounds", &S::rounds, 0, 20, "rounds, each fitting the moved proxy's outlines again")
+    .Add("search_px", &S::search_px, 0.25, 20.0, "outline searched +/- this many pixels from the proxy's")
+    .Add("min_contrast", &S::min_contrast, 0.0, 1e6,
+         "object against board at the outline, in the fit's residual RMS; less: no vote")
+    .Add("lit_cosine", &S::lit_cosine, -1.0, 1.0,
+         "a rim the flash lights at least this well votes where the object is brighter than the board")
+    .Add("shadow_cosine", &S::shadow_cosine, -1.0, 1.0,
+         "a rim lit less than this votes where the object is darker than the board")
+    .Add("rim_cosine", &S::rim_cosine, 0.01, 1.0,
+         "vertices whose normal is within this cosine of across the view form the rim")
+    .Add("min_votes", &S::min_votes, 1, 1000, "frames that must vote for a vertex")
+    .Add("smoothness", &S::smoothness, 0.0, 1e6, "neighbour coupling of the offsets (one vote weighs 1)"))
+
 RELIT_OPTION_FIELDS(RefineOptions,
     .Add("enabled", &S::enabled, "refine the cleaned proxy against the dense path's depth maps")
     .Add("iterations", &S::iterations, 0, 10000, "refinement iterations")
@@ -173,7 +189,8 @@ RELIT_OPTION_FIELDS(RefineOptions,
     .Add("smoothing", &S::smoothing, 0.0, 1.0, "Taubin lambda per iteration (mu = -1.02 lambda; 0 = none)")
     .Add("final_smoothing_iterations", &S::final_smoothing_iterations, 0, 10000,
          "Taubin passes (lambda = smoothing) after the last iteration, no data term")
-    .Section("photometric", &S::photometric))
+    .Section("photometric", &S::photometric)
+    .Section("silhouette", &S::silhouette))
 
 RELIT_OPTION_FIELDS(TrimapOptions,
     .Add("band_px", &S::band_px, 0, 1000, "unknown band half width, pixels (0 = automatic, below)")

@@ -204,6 +204,22 @@ struct SurfacePhotoOptions {
   static const OptionFields<SurfacePhotoOptions>& Fields();
 };
 
+// Silhouette refinement (silhouette_refine.h): the proxy's rim vertices
+// moved so that its outline meets the object's outline fitted in each phone V
+// frame against the board's print. YAML: refine.silhouette.
+struct SilhouetteOptions {
+  bool enabled = true;
+  int rounds = 3;                 // each round fits the outlines of the moved proxy again
+  double search_px = 2.0;         // the outline is searched +/- this many pixels from the proxy's
+  double min_contrast = 10.0;     // object against board at the outline, in the fit's residual RMS
+  double lit_cosine = 0.5;        // a rim lit at least this well votes where the object is brighter
+  double shadow_cosine = 0.2;     // a rim lit less than this votes where the object is darker
+  double rim_cosine = 0.4;        // vertices whose normal is this close to across the view form the rim
+  int min_votes = 2;              // frames that must vote for a vertex
+  double smoothness = 2.0;        // neighbour coupling of the offsets (a vertex with 1 vote weighs 1)
+  static const OptionFields<SilhouetteOptions>& Fields();
+};
+
 // Refinement of the cleaned proxy against the dense path's depth maps
 // (visibility_refine.h); skipped for user meshes and the sparse path.
 struct RefineOptions {
@@ -228,6 +244,7 @@ struct RefineOptions {
   // from the truth's, median), and the cues shade every lump.
   int final_smoothing_iterations = 20;
   SurfacePhotoOptions photometric;      // then the photometric search (needs the frames)
+  SilhouetteOptions silhouette;         // then the outlines (needs the flash positions)
   static const OptionFields<RefineOptions>& Fields();
 };
 
