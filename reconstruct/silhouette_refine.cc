@@ -1,9 +1,10 @@
 #include "reconstruct/silhouette_refine.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
-#include <mutex>
+#include <limits>
 #include <unordered_map>
 #include <utility>
 
@@ -170,80 +171,117 @@ struct FrameVotes {
   int64_t profiles = 0;
 };
 
-// One frame's votes: for each point of the proxy's outline that a rim vertex
-// forms, the offset along that vertex's normal that puts the outline on the
-// object's, when the profile is one that votes (header).
+// Every vertex projected into the frame; the rim: vertices whose normal is
+// nearly across the view.
+struct ProjectedMesh {
+  std::vector<Eigen::Vector2d> pixels;
+  std::vector<char> in_front, rim;
+};
+
+ProjectedMesh ProjectMesh(const render::TriangleMesh& mesh, const Camera& camera, double rim_cosine) {
+  const size_t n = mesh.positions.size();
+  ProjectedMesh projected{std::vector<Eigen::Vector2d>(n, Eigen::Vector2d::Zero()), std::vector<char>(n, 0),
+                          std::vector<char>(n, 0)};
+  const Eigen::Vector3d centre = camera.Center();
+  for (size_t v = 0; v < n; ++v) {
+    const Eigen::Vector3d p = mesh.positions[v].cast<double>();
+    projected.in_front[v] = camera.Project(p, &projected.pixels[v]);
+    const Eigen::Vector3d to_camera = (centre - p).normalized();
+    projected.rim[v] = projected.in_front[v] &&
+                       std::abs(mesh.normals[v].cast<double>().normalized().dot(to_camera)) < rim_cosine;
+  }
+  return projected;
+}
+
+// One profile across the proxy's outline: the frame's colours, the board
+// print's albedo where each sample's ray meets the board plane, and where
+// the proxy's own outline lies on it (measured as the fit measures the
+// object's: the coverage summed).
+struct Profile {
+  std::vector<Eigen::Vector3f> colours;
+  std::vector<float> albedo;
+  double proxy_offset_px = 0;
+};
+
+// False where the profile leaves the image or a ray misses the board plane.
+bool SampleProfile(const ContourPoint& point, const Camera& camera, const cv::Mat& colour, const cv::Mat& coverage,
+                   const BoardPrint& board, Profile* profile) {
+  const int half = static_cast<int>(std::lround(kProfileHalfPx / kProfileStepPx));
+  const Eigen::Vector2d first = point.pixel - half * kProfileStepPx * point.outward;
+  const Eigen::Vector2d last = point.pixel + half * kProfileStepPx * point.outward;
+  if (std::min({first.x(), last.x(), first.y(), last.y()}) < 1 || std::max(first.x(), last.x()) > colour.cols - 2 ||
+      std::max(first.y(), last.y()) > colour.rows - 2) {
+    return false;
+  }
+  const Eigen::Vector3d centre = camera.Center();
+  profile->colours.resize(static_cast<size_t>(2 * half + 1));
+  profile->albedo.resize(profile->colours.size());
+  double covered = 0;
+  for (int i = -half; i <= half; ++i) {
+    const Eigen::Vector2d pixel = point.pixel + i * kProfileStepPx * point.outward;
+    const Eigen::Vector3d ray = camera.PixelToWorldRay(pixel);
+    if (ray.z() > -1e-6) return false;  // towards the sky
+    const auto k = static_cast<size_t>(i + half);
+    profile->albedo[k] = board.Albedo(centre + (-centre.z() / ray.z()) * ray);
+    for (int c = 0; c < 3; ++c) profile->colours[k][c] = SampleBilinear(colour, pixel.x(), pixel.y(), c);
+    covered += SampleBilinear(coverage, pixel.x(), pixel.y(), 0);
+  }
+  // A step at s covers (s + half step) / step + half samples (box pixels).
+  profile->proxy_offset_px = kProfileStepPx * covered - (half + 0.5) * kProfileStepPx;
+  return true;
+}
+
+// The move of rim vertex v along its normal that puts the proxy's outline
+// on the fitted one; false for a profile of a kind that does not vote
+// (header) or a vertex whose move would hardly shift the outline.
+bool RimVote(const render::TriangleMesh& mesh, const ProjectedMesh& projected, size_t v, const Camera& camera,
+             const Eigen::Vector3d& flash_m, const ContourPoint& point, const Profile& profile, const OutlineFit& fit,
+             const SilhouetteOptions& options, float* offset_m) {
+  const Eigen::Vector3d p = mesh.positions[v].cast<double>();
+  const Eigen::Vector3d normal = mesh.normals[v].cast<double>().normalized();
+  const double light_cosine = normal.dot((flash_m - p).normalized());
+  const bool lit_and_bright = fit.polarity > 0 && light_cosine >= options.lit_cosine;
+  const bool shadowed_and_dark = fit.polarity < 0 && light_cosine < options.shadow_cosine;
+  if (!lit_and_bright && !shadowed_and_dark) return false;
+  constexpr double kEpsilonM = 1e-4;  // the outline's shift per metre along the normal, by a finite difference
+  Eigen::Vector2d moved;
+  if (!camera.Project(p + kEpsilonM * normal, &moved)) return false;
+  const double shift_px_per_m = (moved - projected.pixels[v]).dot(point.outward) / kEpsilonM;
+  const double depth_m = (camera.cam_from_world() * p).z();
+  if (shift_px_per_m < kMinNormalShift * camera.intrinsics().fx / depth_m) return false;
+  *offset_m = static_cast<float>((fit.offset_px - profile.proxy_offset_px) / shift_px_per_m);
+  return true;
+}
+
+// One frame's votes: for each point of the proxy's outer outline that a rim
+// vertex forms, the move that puts the outline on the object's.
 FrameVotes VoteInFrame(const render::TriangleMesh& mesh, const SilhouetteView& view, const BoardPrint& board,
                        const SilhouetteOptions& options) {
   const Camera& camera = view.camera;
   const int width = camera.intrinsics().width, height = camera.intrinsics().height;
-  const size_t n = mesh.positions.size();
-  std::vector<Eigen::Vector2d> projected(n, Eigen::Vector2d::Zero());
-  std::vector<char> in_front(n, 0), rim(n, 0);
-  const Eigen::Vector3d centre = camera.Center();
-  for (size_t v = 0; v < n; ++v) {
-    const Eigen::Vector3d p = mesh.positions[v].cast<double>();
-    in_front[v] = camera.Project(p, &projected[v]);
-    const Eigen::Vector3d to_camera = (centre - p).normalized();
-    rim[v] = in_front[v] && std::abs(mesh.normals[v].cast<double>().normalized().dot(to_camera)) < options.rim_cosine;
-  }
+  const ProjectedMesh projected = ProjectMesh(mesh, camera, options.rim_cosine);
   FrameVotes result;
-  const cv::Mat coverage = ProjectedCoverage(mesh, projected, in_front, width, height);
+  const cv::Mat coverage = ProjectedCoverage(mesh, projected.pixels, projected.in_front, width, height);
   const std::vector<ContourPoint> contour = OuterContour(coverage);
   if (contour.empty()) return result;
-  const RimIndex rim_index(projected, rim, width);
+  const RimIndex rim_index(projected.pixels, projected.rim, width);
   const Image image = view.load_image();
   RELIT_REQUIRE(image.width() == width && image.height() == height && image.channels() >= 3,
                 "refine.silhouette: a frame is ", image.width(), "x", image.height(), "x", image.channels(),
                 ", its camera ", width, "x", height, "x3");
   const cv::Mat colour(height, width, CV_32FC(image.channels()), const_cast<float*>(image.data().data()));
-
-  const int samples = 2 * static_cast<int>(std::lround(kProfileHalfPx / kProfileStepPx)) + 1;
-  std::vector<double> t(static_cast<size_t>(samples));
-  for (int i = 0; i < samples; ++i) t[static_cast<size_t>(i)] = (i - samples / 2) * kProfileStepPx;
-  std::vector<Eigen::Vector3f> colours(t.size());
-  std::vector<float> albedo(t.size());
-  const double focal_px = camera.intrinsics().fx;
+  Profile profile;
   for (const ContourPoint& point : contour) {
-    const Eigen::Vector2d first = point.pixel + t.front() * point.outward, last = point.pixel + t.back() * point.outward;
-    if (std::min({first.x(), last.x(), first.y(), last.y()}) < 1 || std::max(first.x(), last.x()) > width - 2 ||
-        std::max(first.y(), last.y()) > height - 2) {
-      continue;
-    }
     const int vertex = rim_index.Nearest(point.pixel);
-    if (vertex < 0) continue;
-    bool on_plane = true;
-    double proxy_coverage = 0;
-    for (size_t i = 0; i < t.size() && on_plane; ++i) {
-      const Eigen::Vector2d pixel = point.pixel + t[i] * point.outward;
-      const Eigen::Vector3d ray = camera.PixelToWorldRay(pixel);
-      on_plane = ray.z() < -1e-6;
-      const Eigen::Vector3d hit = centre + (-centre.z() / ray.z()) * ray;
-      albedo[i] = board.Albedo(hit);
-      for (int c = 0; c < 3; ++c) colours[i][c] = SampleBilinear(colour, pixel.x(), pixel.y(), c);
-      proxy_coverage += SampleBilinear(coverage, pixel.x(), pixel.y(), 0);
-    }
-    if (!on_plane) continue;
+    if (vertex < 0 || !SampleProfile(point, camera, colour, coverage, board, &profile)) continue;
     ++result.profiles;
-    const OutlineFit fit = FitOutline(colours, albedo, kProfileStepPx, options.search_px);
+    const OutlineFit fit = FitOutline(profile.colours, profile.albedo, kProfileStepPx, options.search_px);
     if (!fit.found || fit.contrast < options.min_contrast) continue;
-    const auto v = static_cast<size_t>(vertex);
-    const Eigen::Vector3d p = mesh.positions[v].cast<double>();
-    const Eigen::Vector3d normal = mesh.normals[v].cast<double>().normalized();
-    const double light_cosine = normal.dot((view.flash_m - p).normalized());
-    const bool lit_and_bright = fit.polarity > 0 && light_cosine >= options.lit_cosine;
-    const bool shadowed_and_dark = fit.polarity < 0 && light_cosine < options.shadow_cosine;
-    if (!lit_and_bright && !shadowed_and_dark) continue;
-    // The outline's shift per metre of the vertex along its normal.
-    constexpr double kEpsilonM = 1e-4;
-    Eigen::Vector2d moved;
-    if (!camera.Project(p + kEpsilonM * normal, &moved)) continue;
-    const double shift_px_per_m = (moved - projected[v]).dot(point.outward) / kEpsilonM;
-    const double depth_m = (camera.cam_from_world() * p).z();
-    if (shift_px_per_m < kMinNormalShift * focal_px / depth_m) continue;
-    // The proxy's own outline on the profile, as the fit measures the object's.
-    const double proxy_offset_px = kProfileStepPx * proxy_coverage - (samples / 2) * kProfileStepPx - 0.5 * kProfileStepPx;
-    result.votes.push_back({vertex, static_cast<float>((fit.offset_px - proxy_offset_px) / shift_px_per_m)});
+    float offset_m = 0;
+    if (RimVote(mesh, projected, static_cast<size_t>(vertex), camera, view.flash_m, point, profile, fit, options,
+                &offset_m)) {
+      result.votes.push_back({vertex, offset_m});
+    }
   }
   return result;
 }

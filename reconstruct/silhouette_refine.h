@@ -25,6 +25,7 @@
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 
 #include "core/board.h"
 #include "core/camera.h"
