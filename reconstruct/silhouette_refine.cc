@@ -286,27 +286,6 @@ FrameVotes VoteInFrame(const render::TriangleMesh& mesh, const SilhouetteView& v
   return result;
 }
 
-// Offsets that follow the votes where there are many and their neighbours
-// elsewhere: argmin sum w (x - o)^2 + smoothness sum_edges (x_u - x_v)^2 +
-// a pull to 0 (a region without votes stays), by Gauss-Seidel sweeps.
-std::vector<double> SmoothVotes(const std::vector<double>& offsets, const std::vector<double>& weights,
-                                const std::vector<std::vector<int>>& rings, double smoothness) {
-  constexpr double kAnchor = 0.05;
-  constexpr int kSweeps = 100;
-  std::vector<double> x = offsets;
-  for (int sweep = 0; sweep < kSweeps; ++sweep) {
-    for (size_t v = 0; v < x.size(); ++v) {
-      double numerator = weights[v] * offsets[v], denominator = weights[v] + kAnchor;
-      for (int u : rings[v]) {
-        numerator += smoothness * x[static_cast<size_t>(u)];
-        denominator += smoothness;
-      }
-      x[v] = numerator / denominator;
-    }
-  }
-  return x;
-}
-
 }  // namespace
 
 OutlineFit FitOutline(const std::vector<Eigen::Vector3f>& colours, const std::vector<float>& board_albedo,
@@ -420,7 +399,8 @@ render::TriangleMesh RefineSilhouettes(const render::TriangleMesh& mesh, const s
       weights[v] = std::min<double>(static_cast<double>(list.size()), 6.0);
       ++voting;
     }
-    const std::vector<double> smoothed = SmoothVotes(offsets, weights, rings, options.smoothness);
+    // The pull to 0 where no frame voted: 1/20 of one vote.
+    const std::vector<double> smoothed = SmoothOverRings(offsets, weights, rings, options.smoothness, 0.05, 100);
     for (size_t v = 0; v < n; ++v) {
       welded.positions[v] +=
           static_cast<float>(std::clamp(smoothed[v], -max_move_m, max_move_m)) * welded.normals[v].normalized();

@@ -239,29 +239,6 @@ OffsetVote SearchVertex(const Eigen::Vector3d& p, const Eigen::Vector3d& normal,
   return vote;
 }
 
-// Offsets that follow the votes where they are sure and their neighbours
-// elsewhere: argmin sum w (x - o)^2 + smoothness sum_edges (x_u - x_v)^2 +
-// a faint pull to 0 (a region without votes stays where it is), by
-// Gauss-Seidel sweeps.
-std::vector<double> SmoothOffsets(const std::vector<OffsetVote>& votes, const std::vector<std::vector<int>>& rings,
-                                  double smoothness) {
-  constexpr double kAnchor = 1e-3;
-  constexpr int kSweeps = 200;
-  std::vector<double> x(votes.size(), 0.0);
-  for (size_t v = 0; v < votes.size(); ++v) x[v] = votes[v].weight > 0 ? votes[v].offset_m : 0.0;
-  for (int sweep = 0; sweep < kSweeps; ++sweep) {
-    for (size_t v = 0; v < votes.size(); ++v) {
-      double numerator = votes[v].weight * votes[v].offset_m, denominator = votes[v].weight + kAnchor;
-      for (int u : rings[v]) {
-        numerator += smoothness * x[static_cast<size_t>(u)];
-        denominator += smoothness;
-      }
-      x[v] = numerator / denominator;
-    }
-  }
-  return x;
-}
-
 }  // namespace
 
 // The JSON keys are the members' names.
@@ -318,7 +295,13 @@ render::TriangleMesh RefineSurfacePhotometric(const render::TriangleMesh& mesh, 
     const int measured = static_cast<int>(std::count_if(votes.begin(), votes.end(), [](const OffsetVote& o) {
       return o.weight > 0;
     }));
-    const std::vector<double> offsets = SmoothOffsets(votes, rings, options.smoothness);
+    std::vector<double> voted(n), weights(n);
+    for (size_t v = 0; v < n; ++v) {
+      voted[v] = votes[v].offset_m;
+      weights[v] = votes[v].weight;
+    }
+    // A sure vertex weighs ~1; a faint pull to 0 keeps unmeasured regions.
+    const std::vector<double> offsets = SmoothOverRings(voted, weights, rings, options.smoothness, 1e-3, 200);
     for (size_t v = 0; v < n; ++v) {
       positions[v] += static_cast<float>(std::clamp(offsets[v], -search_m, search_m)) * welded.normals[v].normalized();
     }

@@ -123,6 +123,24 @@ void KeepAboveFloor(double floor_z_m, std::vector<Eigen::Vector3f>* positions) {
   for (Eigen::Vector3f& p : *positions) p.z() = std::max(p.z(), static_cast<float>(floor_z_m));
 }
 
+std::vector<double> SmoothOverRings(const std::vector<double>& offsets, const std::vector<double>& weights,
+                                    const std::vector<std::vector<int>>& rings, double smoothness, double anchor,
+                                    int sweeps) {
+  std::vector<double> x(offsets.size(), 0.0);
+  for (size_t v = 0; v < x.size(); ++v) x[v] = weights[v] > 0 ? offsets[v] : 0.0;
+  for (int sweep = 0; sweep < sweeps; ++sweep) {
+    for (size_t v = 0; v < x.size(); ++v) {
+      double numerator = weights[v] * offsets[v], denominator = weights[v] + anchor;
+      for (int u : rings[v]) {
+        numerator += smoothness * x[static_cast<size_t>(u)];
+        denominator += smoothness;
+      }
+      x[v] = numerator / denominator;
+    }
+  }
+  return x;
+}
+
 std::vector<std::vector<int>> VertexRings(const render::TriangleMesh& mesh) {
   std::vector<std::vector<int>> rings(mesh.positions.size());
   for (const Eigen::Vector3i& t : mesh.triangles) {

@@ -80,6 +80,15 @@ std::vector<std::vector<int>> VertexRings(const render::TriangleMesh& mesh);
 // Clamps every position to z >= floor_z_m.
 void KeepAboveFloor(double floor_z_m, std::vector<Eigen::Vector3f>* positions);
 
+// Per-vertex offsets that follow the measured ones where they are sure and
+// their neighbours elsewhere: argmin sum w (x - o)^2 + smoothness
+// sum_edges (x_u - x_v)^2 + anchor x^2 (a region without measurements
+// stays where it is), by `sweeps` Gauss-Seidel sweeps from the measurements
+// (0 where a weight is 0).
+std::vector<double> SmoothOverRings(const std::vector<double>& offsets, const std::vector<double>& weights,
+                                    const std::vector<std::vector<int>>& rings, double smoothness, double anchor,
+                                    int sweeps);
+
 render::TriangleMesh RefineWithDepthMaps(const render::TriangleMesh& mesh, const DepthEvidence& evidence,
                                          const RefineOptions& options, double floor_z_m, RefineReport* report);
 
