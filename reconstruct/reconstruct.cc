@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <mutex>
+#include <optional>
 #include <utility>
 
 #include <CLI/CLI.hpp>
@@ -59,23 +60,34 @@ std::vector<const CalibratedFrame*> UndistortedViewFrames(const CamerasFile& cam
   return frames;
 }
 
+// calib's flash positions (recorded as an input), or nothing: then the
+// step that needs them logs why it is skipped and reports it under
+// `report_key`.
+std::optional<LightsFile> FlashPositions(const fs::path& workspace, RunRecord& record, const std::string& step,
+                                         const std::string& consequence, const std::string& report_key,
+                                         nlohmann::json* report) {
+  const fs::path lights_path = workspace / "calib" / "lights.json";
+  if (!fs::exists(lights_path)) {
+    spdlog::info("{}: {} is missing (no flash positions); {}", step, lights_path.string(), consequence);
+    (*report)[report_key] = {{"skipped", "no calib/lights.json"}};
+    return std::nullopt;
+  }
+  record.AddInput("lights", lights_path.string());
+  return ReadLightsFile(lights_path.string());
+}
+
 // 1d. The proxy's outlines against the object's in the flash-lit phone V
 // frames (silhouette_refine.h); needs the flash positions.
 void RefineOutlines(const fs::path& workspace, const CamerasFile& cameras, const ReconstructOptions& options,
                     RunRecord& record, render::TriangleMesh* proxy, nlohmann::json* report) {
   const SilhouetteOptions& silhouette = options.refine.silhouette;
   if (!silhouette.enabled || silhouette.rounds == 0) return;
-  const fs::path lights_path = workspace / "calib" / "lights.json";
-  if (!fs::exists(lights_path)) {
-    spdlog::info("silhouette refine: {} is missing (no flash positions); skipped", lights_path.string());
-    (*report)["refine_silhouette"] = {{"skipped", "no calib/lights.json"}};
-    return;
-  }
-  record.AddInput("lights", lights_path.string());
-  const LightsFile lights = ReadLightsFile(lights_path.string());
+  const std::optional<LightsFile> lights =
+      FlashPositions(workspace, record, "silhouette refine", "skipped", "refine_silhouette", report);
+  if (!lights) return;
   std::vector<SilhouetteView> views;
   for (const CalibratedFrame* frame : cameras.FramesOf("view")) {
-    const FrameLight* light = lights.Find(frame->name);
+    const FrameLight* light = lights->Find(frame->name);
     if (light == nullptr || !light->reliable || frame->image_linear.empty()) continue;
     const std::string path = (workspace / frame->image_linear).string();
     views.push_back({cameras.ViewCamera(*frame), light->position_m, [path] { return ReadImage(path); }});
@@ -271,19 +283,13 @@ void WriteNormalMap(const fs::path& workspace, const CamerasFile& cameras,
                     const std::vector<const CalibratedFrame*>& frames, const NormalMapOptions& options,
                     StageRun& run, ProxyFile* proxy_file, nlohmann::json* report) {
   if (!options.enabled) return;
-  const fs::path lights_path = workspace / "calib" / "lights.json";
-  if (!fs::exists(lights_path)) {
-    spdlog::info("normal map: {} is missing (no flash positions); the proxy keeps its mesh normals",
-                 lights_path.string());
-    (*report)["normal_map"] = {{"skipped", "no calib/lights.json"}};
-    return;
-  }
-  run.record().AddInput("lights", lights_path.string());
-  const LightsFile lights = ReadLightsFile(lights_path.string());
+  const std::optional<LightsFile> lights = FlashPositions(
+      workspace, run.record(), "normal map", "the proxy keeps its mesh normals", "normal_map", report);
+  if (!lights) return;
   const render::TriangleMesh mesh = render::LoadMesh((run.path() / "proxy.obj").string());
   NormalMapStats stats;
   Image map = run.Step("normal_map", [&] {
-    return EstimateNormalMap(workspace.string(), cameras, lights, frames, mesh, options, &stats);
+    return EstimateNormalMap(workspace.string(), cameras, *lights, frames, mesh, options, &stats);
   });
   map.set_channel_names({"R", "G", "B"});
   WriteImage((run.path() / "proxy_normals.exr").string(), map, PixelStorage::kFloat);

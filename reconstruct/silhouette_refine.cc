@@ -27,28 +27,22 @@ constexpr int kSupersampling = 4;        // coverage rasterised at 4 x 4 samples
 constexpr double kRimSearchPx = 2.0;     // a contour point's rim vertex projects within this
 constexpr double kMinNormalShift = 0.3;  // the rim's normal must move the outline >= 0.3 px per footprint
 
-// The object's appearance near its outline is a linear ramp, the board's its
-// print x gain + offset; a is the object's coverage of sample t for a step at s
-// (box pixel: the step crosses the sample's pixel linearly).
-struct StepModel {
-  Eigen::Matrix<double, Eigen::Dynamic, 4> design;
-  std::vector<double> coverage;
-};
-
-StepModel MakeStep(const std::vector<double>& t, const std::vector<float>& albedo, double s) {
-  StepModel model;
-  model.design.resize(static_cast<Eigen::Index>(t.size()), 4);
-  model.coverage.resize(t.size());
+// The design matrix of a step at s: the object's appearance near its outline
+// is a linear ramp, the board's its print x gain + offset; a is the object's
+// coverage of sample t (box pixel: the step crosses the sample's pixel
+// linearly).
+Eigen::Matrix<double, Eigen::Dynamic, 4> StepDesign(const std::vector<double>& t, const std::vector<float>& albedo,
+                                                    double s) {
+  Eigen::Matrix<double, Eigen::Dynamic, 4> design(static_cast<Eigen::Index>(t.size()), 4);
   for (size_t i = 0; i < t.size(); ++i) {
     const double a = std::clamp(0.5 + s - t[i], 0.0, 1.0);
-    model.coverage[i] = a;
     const auto row = static_cast<Eigen::Index>(i);
-    model.design(row, 0) = a;
-    model.design(row, 1) = a * t[i];
-    model.design(row, 2) = (1 - a) * albedo[i];
-    model.design(row, 3) = 1 - a;
+    design(row, 0) = a;
+    design(row, 1) = a * t[i];
+    design(row, 2) = (1 - a) * albedo[i];
+    design(row, 3) = 1 - a;
   }
-  return model;
+  return design;
 }
 
 // Sub-pixel contour of the binary coverage: point, outward unit normal.
@@ -300,19 +294,19 @@ OutlineFit FitOutline(const std::vector<Eigen::Vector3f>& colours, const std::ve
   // Candidate steps a quarter pixel apart, inside the profile.
   const double reach = std::min(search_px, t.back() - 1.0);
   double best_cost = std::numeric_limits<double>::infinity(), best_step = 0;
+  Eigen::MatrixXd solution;  // of the best step
   for (double s = -reach; s <= reach + 1e-9; s += 0.25) {
-    const StepModel model = MakeStep(t, board_albedo, s);
-    const Eigen::MatrixXd solution = model.design.colPivHouseholderQr().solve(observed);
-    const double cost = (model.design * solution - observed).squaredNorm();
+    const Eigen::Matrix<double, Eigen::Dynamic, 4> design = StepDesign(t, board_albedo, s);
+    Eigen::MatrixXd candidate = design.colPivHouseholderQr().solve(observed);
+    const double cost = (design * candidate - observed).squaredNorm();
     if (cost < best_cost) {
       best_cost = cost;
       best_step = s;
+      solution = std::move(candidate);
     }
   }
   OutlineFit fit;
   if (!std::isfinite(best_cost) || std::abs(best_step) > reach - 0.01) return fit;  // at the search's edge
-  const StepModel model = MakeStep(t, board_albedo, best_step);
-  const Eigen::MatrixXd solution = model.design.colPivHouseholderQr().solve(observed);
   // Board albedo at the step (linear between samples).
   const double position = best_step / step_px + 0.5 * static_cast<double>(n - 1);
   const size_t below = std::min(static_cast<size_t>(std::floor(position)), n - 2);
