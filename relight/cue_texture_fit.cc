@@ -122,6 +122,13 @@ CueTextureFit::CueTextureFit(int resolution_px, const CueFitOptions& options)
   RELIT_REQUIRE(resolution_px >= 1, "cue fit: resolution must be >= 1, got ", resolution_px);
 }
 
+void CueTextureFit::SetWeights(std::vector<float> weights) {
+  RELIT_REQUIRE(weights.size() == static_cast<size_t>(resolution_) * resolution_ * kWeights, "cue fit: ",
+                weights.size(), " weights for a ", resolution_, "^2 grid of ", kWeights);
+  weights_ = std::move(weights);
+  solved_ = true;
+}
+
 void CueTextureFit::AddPixel(const float* cues, float u, float v, const float* target_rgb) {
   solved_ = false;
   // Streaming decimation: keep every stride-th pixel offered; when twice the

@@ -150,6 +150,9 @@ class CueTextureFit {
   };
   void AddFrame(const FramePixels& frame);
   CueFitStats Solve();
+  // A fit solved elsewhere (a model's warm start, warm_start.h): `weights`
+  // laid out as Weight() reads them, resolution_px^2 x kWeights floats.
+  void SetWeights(std::vector<float> weights);
 
   // After Solve(): weights of texel row y (row 0 at v = 1), column x.
   float Weight(int x, int y, int j) const {

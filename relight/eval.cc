@@ -22,6 +22,7 @@
 #include "relight/cues_baseline.h"
 #include "relight/plan.h"
 #include "relight/render_stage.h"
+#include "relight/train_stage.h"
 
 namespace relit::relight {
 
@@ -247,6 +248,8 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
   std::map<std::string, std::unique_ptr<RelitRenderer>> renderers;
   std::unique_ptr<CuesOnlyBaseline> baseline;
   std::unique_ptr<CueTextureFit> cue_fit;
+  bool solve_cue_fit = false;
+  std::string cue_fit_source;
   int baseline_frames = 0;
   // How phone V was linearised: the cue fit's clipping level and the white level below.
   const std::string capture_transfer = CaptureTransfer(root.string());
@@ -272,9 +275,18 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
     const Plan plan = ReadPlan((root / "relight/plan/plan.json").string());
     if (want_cues_only) baseline = std::make_unique<CuesOnlyBaseline>(options.baseline_resolution_px, options.baseline_ridge);
     if (want_cue_fit) {
-      CueFitOptions fit = options.cue_fit;
-      fit.saturation_level = cue_fit_saturation_level;
-      cue_fit = std::make_unique<CueTextureFit>(options.cue_fit_resolution_px, fit);
+      // The model's warm start when it is this very fit (train_stage.h): a
+      // minute of solving on the demo saved.
+      std::string why_not;
+      cue_fit = ReadWarmStartCueFit(root.string(), options.cue_fit, options.cue_fit_resolution_px, &why_not);
+      cue_fit_source = cue_fit ? "warm start of partition 00" : "solved here (the warm start: " + why_not + ")";
+      spdlog::info("eval: cue_fit {}", cue_fit_source);
+      if (!cue_fit) {
+        CueFitOptions fit = options.cue_fit;
+        fit.saturation_level = cue_fit_saturation_level;
+        cue_fit = std::make_unique<CueTextureFit>(options.cue_fit_resolution_px, fit);
+        solve_cue_fit = true;
+      }
     }
     std::vector<const PlanFrame*> frames;
     for (const PlanFrame& f : plan.frames) {
@@ -286,12 +298,12 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
       const Image cues = ReadCueFrame((root / f->cues).string()), image = ReadImage((root / f->image).string()),
                   matte = ReadImage((root / f->matte).string());
       if (baseline) baseline->Accumulate(cues, image, matte);
-      if (cue_fit) cue_fit->AddFrame(cues, image, matte);
+      if (solve_cue_fit) cue_fit->AddFrame(cues, image, matte);
       progress.Advance();
     }
     progress.Finish();
     if (baseline) baseline->Solve();
-    if (cue_fit) cue_fit->Solve();
+    if (solve_cue_fit) cue_fit->Solve();
     baseline_frames = static_cast<int>(frames.size());
   }
 
@@ -436,7 +448,9 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
       {"cue_fit", {{"training_frames", baseline_frames},
                    {"resolution_px", options.cue_fit_resolution_px},
                    {"saturation_level", cue_fit_saturation_level},
-                   {"pixels", cue_fit ? cue_fit->pixels() : 0}}},
+                   {"source", cue_fit_source},
+                   // Solved here: its pixels; the warm start's are in the partition's train.json.
+                   {"pixels", solve_cue_fit ? json(cue_fit->pixels()) : json(nullptr)}}},
       {"models", asset.partition_models},
       {"zoom_pngs", zooms},
       {"options", OptionsToJson(options)},

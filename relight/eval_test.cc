@@ -257,6 +257,43 @@ TEST_F(EvalTest, TruthNoiseFloorFromHalfRenders) {
   EXPECT_LT(floor_db, 36.0);
 }
 
+// Eval's cue_fit method takes the model's warm start when it is the same
+// fit (train_stage.h ReadWarmStartCueFit): its predictions equal a fit
+// solved again on the plan's training frames; any difference in what the
+// fit would be makes eval solve its own.
+TEST_F(EvalTest, CueFitReusesTheWarmStartOnlyWhenItIsTheSameFit) {
+  const std::string ws = dir_ + "/ws";
+  const int resolution = testing::SmallModel().texture_resolution_px;
+  const CueFitOptions train_fit = testing::ShortTraining(kSteps, 64).optimizer.cue_fit;
+  std::string why_not;
+  const std::unique_ptr<CueTextureFit> reused = ReadWarmStartCueFit(ws, train_fit, resolution, &why_not);
+  ASSERT_TRUE(reused) << why_not;
+
+  CueTextureFit solved(resolution, train_fit);
+  const Plan plan = ReadPlan(ws + "/relight/plan/plan.json");
+  testing::ForEachTrainFrame(ws, plan, [&](const Image& cues, const Image& image, const Image& matte) {
+    solved.AddFrame(cues, image, matte);
+  });
+  solved.Solve();
+  const PlanFrame& frame = plan.frames[plan.partitions[0].train_frames.front()];
+  const Image cues = ReadCueFrame(ws + "/" + frame.cues);
+  const Image a = reused->Predict(cues), b = solved.Predict(cues);
+  double largest = 0, brightest = 0;
+  for (size_t i = 0; i < a.data().size(); ++i) {
+    largest = std::max(largest, static_cast<double>(std::abs(a.data()[i] - b.data()[i])));
+    brightest = std::max(brightest, static_cast<double>(b.data()[i]));
+  }
+  EXPECT_GT(brightest, 0.05);
+  EXPECT_LT(largest, 1e-4 * brightest + 1e-6) << "the warm start is not the fit eval would solve";
+
+  CueFitOptions smoother = train_fit;
+  smoother.smoothness_diffuse *= 2;
+  EXPECT_FALSE(ReadWarmStartCueFit(ws, smoother, resolution, &why_not));
+  EXPECT_NE(why_not.find("cue_fit options differ"), std::string::npos) << why_not;
+  EXPECT_FALSE(ReadWarmStartCueFit(ws, train_fit, 2 * resolution, &why_not));
+  EXPECT_NE(why_not.find("resolution"), std::string::npos) << why_not;
+}
+
 TEST(EvalErrors, MissingEvalImageIsNamed) {
   const std::string dir = (fs::temp_directory_path() / ("relit_eval_missing_" + std::to_string(::getpid()))).string();
   const std::string truth = WriteTruth(dir, false);

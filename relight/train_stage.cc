@@ -1,5 +1,6 @@
 #include "relight/train_stage.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -49,6 +50,58 @@ std::string HashCueFrames(const fs::path& root, const std::string& cues_path, co
 }
 
 }  // namespace
+
+std::unique_ptr<CueTextureFit> ReadWarmStartCueFit(const std::string& workspace, const CueFitOptions& fit,
+                                                   int resolution_px, std::string* why_not) {
+  auto refuse = [&](const std::string& reason) {
+    *why_not = reason;
+    return std::unique_ptr<CueTextureFit>();
+  };
+  const fs::path root(workspace);
+  const std::string plan_path = (root / "relight" / "plan" / "plan.json").string();
+  const Plan plan = ReadPlan(plan_path);
+  if (plan.partitions.size() != 1) return refuse("the plan has more than one partition");
+  std::vector<int> fitted;
+  for (int i = 0; i < static_cast<int>(plan.frames.size()); ++i) {
+    if (!plan.frames[i].validation) fitted.push_back(i);
+  }
+  std::vector<int> trained = plan.partitions[0].train_frames;
+  std::sort(trained.begin(), trained.end());
+  if (trained != fitted) return refuse("partition 00 does not train on every non-validation frame");
+  const fs::path dir = root / "relight" / "partitions" / PartitionDirName(0);
+  const fs::path fingerprint_path = dir / "fingerprint.json";
+  if (!fs::exists(dir / "train.json") || !fs::exists(fingerprint_path) || !fs::exists(dir / "checkpoint")) {
+    return refuse("partition 00 is not trained");
+  }
+  std::ifstream in(fingerprint_path);
+  const json fingerprint = json::parse(in, nullptr, false);
+  if (!fingerprint.is_object()) return refuse(fingerprint_path.string() + " is not a JSON object");
+  const std::string cues_path = (root / "relight" / "cues" / "cues.json").string();
+  if (fingerprint.value("plan", json()) != json(HashFile(plan_path)) ||
+      fingerprint.value("cues", json()) != json(HashCueFrames(root, cues_path, ReadCuesFile(cues_path)))) {
+    return refuse("partition 00 was trained on another plan or other cue frames");
+  }
+  const CheckpointInfo info = ReadCheckpointInfo(dir / "checkpoint");
+  const ModelOptions& model = info.model_options;
+  const TrainOptions& train = info.train_options;
+  if (!model.residual() || model.cue_fit != "smooth") return refuse("the model did not start from the smooth cue fit");
+  if (model.texture_resolution_px != resolution_px) return refuse("the model's texture has another resolution");
+  if (train.regression_learning_rate > 0) return refuse("training moved the cue regression");
+  if (OptionsToJson(train.cue_fit) != OptionsToJson(fit)) return refuse("train's cue_fit options differ");
+  const bool same_mattes = train.matte_threshold == 0 || (train.matte_threshold == 0.5 && fit.align_rounds == 0);
+  if (!same_mattes) return refuse("train's matte_threshold changes which pixels the fit reads");
+  const torch::Tensor regression = LoadModel(dir / "checkpoint", "cpu")->regression().detach().to(torch::kFloat);
+  const int64_t r = resolution_px, count = CueTextureFit::kWeights;
+  RELIT_REQUIRE(regression.dim() == 4 && regression.size(1) == count && regression.size(2) == r &&
+                    regression.size(3) == r,
+                (dir / "checkpoint").string(), ": the cue regression is not ", count, " x ", r, " x ", r);
+  // [1, k * 3 + c, y, x] -> [y][x][k * 3 + c], as the warm start wrote it.
+  const torch::Tensor texels = regression[0].permute({1, 2, 0}).contiguous();
+  std::vector<float> weights(texels.data_ptr<float>(), texels.data_ptr<float>() + texels.numel());
+  auto reused = std::make_unique<CueTextureFit>(resolution_px, fit);
+  reused->SetWeights(std::move(weights));
+  return reused;
+}
 
 TrainStageResult RunTrainStage(const std::string& workspace, int partition, const ModelOptions& model_options_in,
                                const TrainStageOptions& options, bool restart, RunRecord& record) {

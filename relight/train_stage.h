@@ -14,10 +14,12 @@
 // otherwise it starts over; --restart always starts over.
 #pragma once
 
+#include <memory>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
+#include "relight/cue_texture_fit.h"
 #include "relight/model.h"
 #include "relight/partitions.h"
 #include "relight/learn_options.h"
@@ -41,6 +43,20 @@ struct TrainStageResult {
 };
 
 std::string PartitionDirName(int partition);  // "07"
+
+// The smooth cue fit that partition 0's residual model started from (its
+// cue-regression weights, read from the checkpoint), when that is exactly
+// the fit `fit` at `resolution_px` would solve on the plan's training
+// frames now: the plan has one partition holding every non-validation
+// frame; train's fingerprint.json matches the plan and cue frames; the
+// model is residual with model.cue_fit smooth at that texture resolution
+// and train.regression_learning_rate 0; train's cue_fit options equal
+// `fit`; the mattes the fit read agree (matte_threshold 0, or 0.5 without
+// alignment: the fit keeps pixels at matte >= 0.5 either way). Otherwise
+// null, with the first condition that failed in *why_not. Eval's cue_fit
+// method then skips solving the same fit a second time.
+std::unique_ptr<CueTextureFit> ReadWarmStartCueFit(const std::string& workspace, const CueFitOptions& fit,
+                                                   int resolution_px, std::string* why_not);
 
 TrainStageResult RunTrainStage(const std::string& workspace, int partition, const ModelOptions& model,
                                const TrainStageOptions& train, bool restart, RunRecord& record);
