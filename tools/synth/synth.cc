@@ -274,9 +274,12 @@ int RenderEvalSet(const SynthOptions& o, const CapturePlan& plan, const SynthSce
     // on the `full` frames, where the object covers a fifth of the image).
     const std::array<int, 4> box = ForegroundBox(camera, synth_scene);
     const bool whole = box == std::array<int, 4>{0, 0, camera.intrinsics().width, camera.intrinsics().height};
-    const bool split = !whole && o.eval_background_samples_per_pixel < o.eval_samples_per_pixel;
     for (size_t l = 0; l < plan.eval_lights.size(); ++l) {
       const EvalLight& light = plan.eval_lights[l];
+      const int light_spp = light.type == "environment" && o.eval_environment_samples_per_pixel > 0
+                                ? o.eval_environment_samples_per_pixel
+                                : o.eval_samples_per_pixel;
+      const bool split = !whole && o.eval_background_samples_per_pixel < light_spp;
       scene->ClearLights();
       if (light.type == "point") {
         scene->AddLight(render::PointLight{F(light.position_world), F(light.rgb).array()});
@@ -295,7 +298,7 @@ int RenderEvalSet(const SynthOptions& o, const CapturePlan& plan, const SynthSce
       // With noise halves: the mean of two independent renders at half the
       // samples each, the first kept for eval's noise floor (the pair costs
       // what one render at the full count does).
-      const int spp = o.eval_noise_halves ? (o.eval_samples_per_pixel + 1) / 2 : o.eval_samples_per_pixel;
+      const int spp = o.eval_noise_halves ? (light_spp + 1) / 2 : light_spp;
       render::RenderResult result = RenderEvalImage(
           *scene, camera, box, FrameRenderOptions(spp, o.max_depth, SubSeed(o.seed, stream), alpha_ids),
           split ? &background : nullptr);

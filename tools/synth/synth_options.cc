@@ -228,6 +228,9 @@ RELIT_OPTION_FIELDS(SynthOptions,
          "views on phone V's path between its frames (DNL's held-out frames)")
     .Add("eval_samples_per_pixel", &S::eval_samples_per_pixel, 1, 1 << 16,
          "path samples per eval pixel in the box where the foreground projects")
+    .Add("eval_environment_samples_per_pixel", &S::eval_environment_samples_per_pixel, 0, 1 << 16,
+         "path samples per eval pixel of the environment-lit images (their truth is the noisiest); 0 = "
+         "eval_samples_per_pixel")
     .Add("eval_background_samples_per_pixel", &S::eval_background_samples_per_pixel, 1, 1 << 16,
          "path samples per eval pixel outside that box (background: shown, never scored)")
     .Add("eval_noise_halves", &S::eval_noise_halves,

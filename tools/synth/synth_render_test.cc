@@ -1,6 +1,7 @@
 // Renders the tiny preset once and checks the capture against its ground
 // truth: audio offset, board corners, alpha mattes, determinism, eval set.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
@@ -428,6 +429,56 @@ TEST_F(SynthRenderTest, EvalOnlyEqualsTheFullRunsEvalSet) {
     for (size_t i = 0; i < a.data().size(); ++i) differing += a.data()[i] != b.data()[i];
     EXPECT_EQ(differing, 0u) << file << ": eval-only pixels differ from the full run's";
   }
+}
+
+// eval_environment_samples_per_pixel raises the samples of the map-lit
+// images only: the point and directional images are the default run's to
+// the bit, and a map-lit image's noise (its difference from its kept half,
+// over the foreground) falls by about sqrt(8) at 8x the samples.
+TEST_F(SynthRenderTest, EnvironmentSamplesLowerOnlyTheMapsNoise) {
+  SynthOptions options = TinySpotSeed7(*root_ / "environment_spp");
+  options.eval_only = true;
+  options.eval_environment_samples_per_pixel = 8 * options.eval_samples_per_pixel;
+  RunSynthImpl(options);
+  const fs::path out(options.out);
+  const nlohmann::json truth = ReadJsonFile((out / "truth.json").string(), kTruthKind, kTruthVersion);
+  EXPECT_EQ(truth["render"]["eval_environment_samples_per_pixel"].get<int>(), 8 * options.eval_samples_per_pixel);
+  std::map<std::string, std::string> type_of;
+  for (const auto& light : truth["eval"]["lights"]) type_of[light["name"]] = light["type"];
+  // Foreground RMS of image - half, summed over the views.
+  auto noise = [](const fs::path& image_path, const fs::path& half_path, const Image& alpha) {
+    const Image image = ReadImage(image_path.string()), half = ReadImage(half_path.string());
+    double sum = 0;
+    int64_t count = 0;
+    for (int y = 0; y < image.height(); ++y) {
+      for (int x = 0; x < image.width(); ++x) {
+        if (alpha.at(x, y, 0) < 0.5f) continue;
+        for (int c = 0; c < 3; ++c) sum += std::pow(image.at(x, y, c) - half.at(x, y, c), 2);
+        count += 3;
+      }
+    }
+    return std::sqrt(sum / std::max<int64_t>(count, 1));
+  };
+  int maps = 0;
+  for (const auto& view : truth["eval"]["views"]) {
+    const Image alpha = ReadImage(Capture(view["alpha"].get<std::string>()).string());
+    for (const auto& [light, path] : view["images"].items()) {
+      const std::string half = view["images_half"][light].get<std::string>();
+      const Image ours = ReadImage((out / path.get<std::string>()).string());
+      const Image theirs = ReadImage(Capture(path.get<std::string>()).string());
+      ASSERT_EQ(ours.data().size(), theirs.data().size());
+      if (type_of[light] != "environment") {
+        EXPECT_TRUE(ours.data() == theirs.data()) << path << ": a point or directional image changed";
+        continue;
+      }
+      ++maps;
+      const double more = noise(out / path.get<std::string>(), out / half, alpha);
+      const double fewer = noise(Capture(path.get<std::string>()), Capture(half), alpha);
+      EXPECT_LT(more, fewer / 2) << path;
+      EXPECT_GT(more, fewer / 5) << path;
+    }
+  }
+  EXPECT_GT(maps, 0);
 }
 
 // Eval images take the eval samples only in the box where the foreground
