@@ -150,7 +150,7 @@ class CueTextureFit {
   };
   void AddFrame(const FramePixels& frame);
   CueFitStats Solve();
-  // A fit solved elsewhere (a model's warm start, warm_start.h): `weights`
+  // A fit solved elsewhere (a model's warm start, train_stage.h): `weights`
   // laid out as Weight() reads them, resolution_px^2 x kWeights floats.
   void SetWeights(std::vector<float> weights);
 

@@ -293,15 +293,17 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
       if (!f.validation) frames.push_back(&f);
     }
     RELIT_REQUIRE(!frames.empty(), (root / "relight/plan/plan.json").string(), " has no training frame");
-    Progress progress("eval: fit cue regressions", static_cast<int64_t>(frames.size()));
-    for (const PlanFrame* f : frames) {
-      const Image cues = ReadCueFrame((root / f->cues).string()), image = ReadImage((root / f->image).string()),
-                  matte = ReadImage((root / f->matte).string());
-      if (baseline) baseline->Accumulate(cues, image, matte);
-      if (solve_cue_fit) cue_fit->AddFrame(cues, image, matte);
-      progress.Advance();
+    if (baseline || solve_cue_fit) {  // the warm start's fit alone reads no frame
+      Progress progress("eval: fit cue regressions", static_cast<int64_t>(frames.size()));
+      for (const PlanFrame* f : frames) {
+        const Image cues = ReadCueFrame((root / f->cues).string()), image = ReadImage((root / f->image).string()),
+                    matte = ReadImage((root / f->matte).string());
+        if (baseline) baseline->Accumulate(cues, image, matte);
+        if (solve_cue_fit) cue_fit->AddFrame(cues, image, matte);
+        progress.Advance();
+      }
+      progress.Finish();
     }
-    progress.Finish();
     if (baseline) baseline->Solve();
     if (solve_cue_fit) cue_fit->Solve();
     baseline_frames = static_cast<int>(frames.size());

@@ -276,9 +276,7 @@ int RenderEvalSet(const SynthOptions& o, const CapturePlan& plan, const SynthSce
     const bool whole = box == std::array<int, 4>{0, 0, camera.intrinsics().width, camera.intrinsics().height};
     for (size_t l = 0; l < plan.eval_lights.size(); ++l) {
       const EvalLight& light = plan.eval_lights[l];
-      const int light_spp = light.type == "environment" && o.eval_environment_samples_per_pixel > 0
-                                ? o.eval_environment_samples_per_pixel
-                                : o.eval_samples_per_pixel;
+      const int light_spp = o.EvalSamplesPerPixel(light.type);
       const bool split = !whole && o.eval_background_samples_per_pixel < light_spp;
       scene->ClearLights();
       if (light.type == "point") {

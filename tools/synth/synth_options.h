@@ -143,6 +143,13 @@ struct SynthOptions {
   static SynthOptions FromFile(const std::string& config, const std::string& size, const std::string& default_size);
   static const OptionFields<SynthOptions>& Fields();
   void Check() const;  // across fields; ranges and choices: CheckOptions
+  // Path samples per pixel of an eval image under a light of `light_type`
+  // ("point", "directional", "environment"): eval_environment_samples_per_pixel
+  // resolved.
+  int EvalSamplesPerPixel(const std::string& light_type) const {
+    return light_type == "environment" && eval_environment_samples_per_pixel > 0 ? eval_environment_samples_per_pixel
+                                                                                 : eval_samples_per_pixel;
+  }
 
   double duration_s() const { return static_cast<double>(frames_per_video) / fps; }
   int LightFrames() const { return light_frames_per_video > 0 ? light_frames_per_video : frames_per_video; }

@@ -445,7 +445,7 @@ TEST_F(SynthRenderTest, EnvironmentSamplesLowerOnlyTheMapsNoise) {
   EXPECT_EQ(truth["render"]["eval_environment_samples_per_pixel"].get<int>(), 8 * options.eval_samples_per_pixel);
   std::map<std::string, std::string> type_of;
   for (const auto& light : truth["eval"]["lights"]) type_of[light["name"]] = light["type"];
-  // Foreground RMS of image - half, summed over the views.
+  // Foreground RMS of image - half, one image.
   auto noise = [](const fs::path& image_path, const fs::path& half_path, const Image& alpha) {
     const Image image = ReadImage(image_path.string()), half = ReadImage(half_path.string());
     double sum = 0;

@@ -210,9 +210,7 @@ nlohmann::json MakeTruthJson(const SynthOptions& o, const SynthScene& scene, con
                  {"samples_per_pixel", o.samples_per_pixel},
                  {"max_depth", o.max_depth},
                  {"eval_samples_per_pixel", o.eval_samples_per_pixel},
-                 {"eval_environment_samples_per_pixel", o.eval_environment_samples_per_pixel > 0
-                                                            ? o.eval_environment_samples_per_pixel
-                                                            : o.eval_samples_per_pixel},
+                 {"eval_environment_samples_per_pixel", o.EvalSamplesPerPixel("environment")},
                  {"eval_background_samples_per_pixel", o.eval_background_samples_per_pixel}};
 
   nlohmann::json lights = nlohmann::json::array();
