@@ -51,7 +51,13 @@ ModelOptions ModelOptionsFromJson(const nlohmann::json& j_in, const std::string&
   return options;
 }
 
-TrainOptions TrainOptionsFromJson(const nlohmann::json& j, const std::string& where) {
+TrainOptions TrainOptionsFromJson(const nlohmann::json& j_in, const std::string& where) {
+  // Keys a checkpoint predates read as what it trained with, not as
+  // today's defaults: before clip_model, clipped readings were lifted.
+  nlohmann::json j = j_in;
+  if (j.contains("cue_fit") && j["cue_fit"].is_object() && !j["cue_fit"].contains("clip_model")) {
+    j["cue_fit"]["clip_model"] = "lift";
+  }
   OptionsReader reader = OptionsReader::FromString(j.dump(), where);
   TrainOptions options;
   ReadOptions(reader, &options);
@@ -72,6 +78,7 @@ void SaveCheckpoint(const std::filesystem::path& dir, Trainer& trainer) {
   nlohmann::json body = {
       {"step", trainer.step()},
       {"clip_overshoot", trainer.clip_overshoot()},
+      {"clip_noise", trainer.clip_noise()},
       {"output_blur_texels", trainer.model()->output_blur_texels()},
       {"model_options", OptionsToJson(trainer.model()->options())},
       {"train_options", OptionsToJson(trainer.train_options())},
@@ -95,6 +102,11 @@ CheckpointInfo ReadCheckpointInfo(const std::filesystem::path& dir) {
     const nlohmann::json& lift = j["clip_overshoot"];
     RELIT_REQUIRE(lift.is_number() && lift.get<double>() >= 1, path, ": 'clip_overshoot' must be a number >= 1");
     info.clip_overshoot = lift.get<double>();
+  }
+  if (j.contains("clip_noise")) {  // absent before the censored model: bounds
+    const nlohmann::json& noise = j["clip_noise"];
+    RELIT_REQUIRE(noise.is_number() && noise.get<double>() >= 0, path, ": 'clip_noise' must be a number >= 0");
+    info.clip_noise = noise.get<double>();
   }
   if (j.contains("output_blur_texels")) {  // absent before the output blur: none
     const nlohmann::json& blur = j["output_blur_texels"];
@@ -125,6 +137,7 @@ std::unique_ptr<Trainer> LoadTrainer(const std::filesystem::path& dir, const std
   });
   trainer->set_step(info.step);
   trainer->set_clip_overshoot(info.clip_overshoot);
+  trainer->set_clip_noise(info.clip_noise);
   trainer->model()->set_output_blur_texels(info.output_blur_texels);
   return trainer;
 }

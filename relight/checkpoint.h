@@ -30,6 +30,7 @@ struct CheckpointInfo {
 
   int64_t step = 0;
   double clip_overshoot = 1;  // the loss's lift of clipped targets (Trainer::set_clip_overshoot)
+  double clip_noise = 0;      // the loss's censored model of clipped targets (Trainer::set_clip_noise); 0 before it
   double output_blur_texels = 0;  // Render's blur in use (DnlModelImpl::output_blur_texels); 0 before it
   ModelOptions model_options;
   TrainOptions train_options;

@@ -2,7 +2,9 @@
 
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <random>
+#include <string>
 #include <utility>
 
 #include <gtest/gtest.h>
@@ -238,6 +240,7 @@ TEST(CueTextureFitTest, FitsClippedChannelsOneSided) {
 TEST(CueTextureFitTest, ClippedPixelsStillPullUp) {
   CueFitOptions options;
   options.saturation_level = 0.9;
+  options.clip_model = "lift";
   CueTextureFit fit(4, options);
   const float cues[15] = {1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
   const float dark[3] = {0.5f, 0.5f, 0.5f}, clipped[3] = {0.95f, 0.95f, 0.95f};
@@ -257,6 +260,7 @@ TEST(CueTextureFitTest, ClippedReadingsAreLiftedByTheOvershootTheFitSees) {
   auto fit_pink = [](double clip_overshoot, CueFitStats* stats) {
     CueFitOptions options;
     options.saturation_level = 0.9;
+    options.clip_model = "lift";
     options.clip_overshoot = clip_overshoot;
     CueTextureFit fit(4, options);
     auto lambert = [](float e) { return std::array<float, 15>{e, e, e, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0}; };
@@ -281,6 +285,50 @@ TEST(CueTextureFitTest, ClippedReadingsAreLiftedByTheOvershootTheFitSees) {
   EXPECT_NEAR(white_at_reading[0], 0.6, 0.01);
   CueFitOptions bad;
   bad.clip_overshoot = 0.5;
+  EXPECT_ANY_THROW(CheckOptions(bad));
+}
+
+// Noise decides which bright pixels clip: of a surface whose radiance
+// straddles white, the pixels that stay below it are those whose noise was
+// negative, and a fit of them (with the clipped ones as bounds at their
+// readings) sits low. A white-ish surface (albedo 0.8, 0.5, 0.5) under
+// Lambert cues 0.5-1.5, 15 % multiplicative noise, clipped at white (1,
+// the saturation level): the censored model finds the red albedo, the
+// bounds at the readings do not, and the noise is measured.
+TEST(CueTextureFitTest, CensoredModelUndoesTheNoiseBiasOfBrightPixels) {
+  auto fit_red = [](const std::string& clip_model, CueFitStats* stats) {
+    CueFitOptions options;
+    options.saturation_level = 0.999;
+    options.clip_model = clip_model;
+    options.clip_overshoot = 1.0;
+    CueTextureFit fit(4, options);
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> shade(0.5f, 1.5f);
+    std::normal_distribution<float> noise(0.0f, 0.15f);
+    const float albedo[3] = {0.8f, 0.5f, 0.5f};
+    for (int i = 0; i < 8000; ++i) {
+      const float e = shade(rng);
+      const float cues[15] = {e, e, e, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+      float rgb[3];
+      for (int c = 0; c < 3; ++c) rgb[c] = std::min(1.0f, albedo[c] * e * (1.0f + noise(rng)));
+      fit.AddPixel(cues, 0.5f, 0.5f, rgb);
+    }
+    *stats = fit.Solve();
+    return fit.WeightsAt(0.5f, 0.5f);
+  };
+  CueFitStats censored_stats, bound_stats;
+  const std::array<float, 15> censored = fit_red("censored", &censored_stats);
+  const std::array<float, 15> bound = fit_red("lift", &bound_stats);
+  std::printf("red albedo 0.8: censored %.4f, bounds at the readings %.4f; noise %.3f, mean lift %.3f\n",
+              censored[0], bound[0], censored_stats.clip_noise, censored_stats.clip_mean_lift);
+  EXPECT_NEAR(censored[0], 0.8, 0.01);
+  EXPECT_LT(bound[0], 0.785);  // the bias the censored model removes
+  EXPECT_NEAR(censored[1], 0.5, 0.01);
+  EXPECT_NEAR(censored_stats.clip_noise, 0.15, 0.02);
+  EXPECT_GT(censored_stats.clip_mean_lift, 1.0);
+  EXPECT_EQ(bound_stats.clip_noise, 0.0);
+  CueFitOptions bad;
+  bad.clip_model = "tobit";
   EXPECT_ANY_THROW(CheckOptions(bad));
 }
 

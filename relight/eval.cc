@@ -250,6 +250,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
   std::unique_ptr<CueTextureFit> cue_fit;
   bool solve_cue_fit = false;
   std::string cue_fit_source;
+  json cue_fit_stats;  // Solve's statistics when solved here
   int baseline_frames = 0;
   // How phone V was linearised: the cue fit's clipping level and the white level below.
   const std::string capture_transfer = CaptureTransfer(root.string());
@@ -305,7 +306,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
       progress.Finish();
     }
     if (baseline) baseline->Solve();
-    if (solve_cue_fit) cue_fit->Solve();
+    if (solve_cue_fit) cue_fit_stats = cue_fit->Solve().ToJson();
     baseline_frames = static_cast<int>(frames.size());
   }
 
@@ -452,7 +453,8 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
                    {"saturation_level", cue_fit_saturation_level},
                    {"source", cue_fit_source},
                    // Solved here: its pixels; the warm start's are in the partition's train.json.
-                   {"pixels", solve_cue_fit ? json(cue_fit->pixels()) : json(nullptr)}}},
+                   {"pixels", solve_cue_fit ? json(cue_fit->pixels()) : json(nullptr)},
+                   {"fit", cue_fit_stats}}},
       {"models", asset.partition_models},
       {"zoom_pngs", zooms},
       {"options", OptionsToJson(options)},

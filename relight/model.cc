@@ -242,21 +242,36 @@ std::vector<torch::Tensor> DnlModelImpl::gates() const {
 }
 
 Losses DnlModelImpl::Loss(const ModelOutput& output, const Batch& batch_in, double mask_loss_weight,
-                          double saturation_level, double clip_overshoot) const {
+                          double saturation_level, double clip_overshoot, double clip_noise) const {
   batch_in.Check(/*need_targets=*/true);
   const Batch batch = batch_in.To(device_);
   const auto& matte = batch.target_matte;
   const auto target_log = encoding_.Encode(batch.target_rgb);
   // L1 in log space where the object is: the matte weights each pixel, the
   // mean is over the matte's area (at least one pixel).
-  auto difference = output.rgb_log - target_log;
+  auto error = (output.rgb_log - target_log).abs();
   if (saturation_level > 0) {
     RELIT_REQUIRE(clip_overshoot >= 1, "clip_overshoot must be >= 1, got ", clip_overshoot);
-    const auto below_bound =
-        clip_overshoot > 1 ? output.rgb_log - encoding_.Encode(batch.target_rgb * clip_overshoot) : difference;
-    difference = torch::where(batch.target_rgb >= saturation_level, below_bound.clamp_max(0.0), difference);
+    RELIT_REQUIRE(clip_noise >= 0, "clip_noise must be >= 0, got ", clip_noise);
+    torch::Tensor clipped_error;
+    if (clip_noise > 0) {
+      // The L1 is a Laplace likelihood's -log times its scale; b = the mean
+      // absolute deviation of a normal noise of that relative size at the
+      // reading (floored: where() passes no NaN from the branch not taken).
+      const auto b = (std::sqrt(2.0 / M_PI) * (encoding_.Encode(batch.target_rgb * (1.0 + clip_noise)) - target_log))
+                         .clamp_min(1e-6);
+      const auto d = output.rgb_log - target_log;
+      const auto above = -b * torch::log1p(-0.5 * torch::exp(-d.clamp_min(0.0) / b));
+      const auto below = (-d).clamp_min(0.0) + b * std::log(2.0);
+      clipped_error = torch::where(d < 0, below, above);
+    } else {
+      const auto to_bound = clip_overshoot > 1 ? output.rgb_log - encoding_.Encode(batch.target_rgb * clip_overshoot)
+                                               : output.rgb_log - target_log;
+      clipped_error = to_bound.clamp_max(0.0).abs();
+    }
+    error = torch::where(batch.target_rgb >= saturation_level, clipped_error, error);
   }
-  const auto rgb = (matte * difference.abs()).sum() / (matte.sum() * 3.0).clamp_min(1.0);
+  const auto rgb = (matte * error).sum() / (matte.sum() * 3.0).clamp_min(1.0);
   // Without a mask network the alpha is the coverage: nothing to learn.
   const auto mask = has_mask_net() ? F::binary_cross_entropy_with_logits(output.mask_logit, matte)
                                    : torch::zeros({}, rgb.options());
@@ -349,7 +364,7 @@ Losses Trainer::Step(const Batch& batch) {
   optimizer_->zero_grad();
   const ModelOutput output = model_->Forward(crop);
   const Losses losses =
-      model_->Loss(output, crop, train_options_.mask_loss_weight, saturation_level_, clip_overshoot_);
+      model_->Loss(output, crop, train_options_.mask_loss_weight, saturation_level_, clip_overshoot_, clip_noise_);
   losses.total.backward();
   optimizer_->step();
   ++step_;
@@ -359,6 +374,11 @@ Losses Trainer::Step(const Batch& batch) {
 void Trainer::set_clip_overshoot(double factor) {
   RELIT_REQUIRE(factor >= 1, "clip_overshoot must be >= 1, got ", factor);
   clip_overshoot_ = factor;
+}
+
+void Trainer::set_clip_noise(double relative_noise) {
+  RELIT_REQUIRE(relative_noise >= 0, "clip_noise must be >= 0, got ", relative_noise);
+  clip_noise_ = relative_noise;
 }
 
 torch::Device ResolveDevice(const std::string& name) {

@@ -111,8 +111,13 @@ class DnlModelImpl : public torch::nn::Module {
   // output is brighter), as in the cue fit (CueFitOptions). The bound is
   // the reading x `clip_overshoot` (>= 1), the lift the warm-start fit used
   // (CueFitStats::clip_overshoot), so the training keeps what the fit lifted.
+  // `clip_noise` > 0 (the fit's censored model, CueFitStats::clip_noise):
+  // instead, a clipped channel's term is the censored-Laplace counterpart
+  // of the L1: b x -log P(radiance >= reading), b the Laplace scale of that
+  // relative noise at the reading in log units. It costs as the L1 below
+  // the reading and still pushes up, ever less, above it, as the fit's EM did.
   Losses Loss(const ModelOutput& output, const Batch& batch, double mask_loss_weight = 1.0,
-              double saturation_level = 0, double clip_overshoot = 1) const;
+              double saturation_level = 0, double clip_overshoot = 1, double clip_noise = 0) const;
   // Premultiplied linear RGBA [B, 4, H, W]: alpha = sigmoid(mask logit);
   // RGB = decoded RGB x alpha (dnl), or the decoded RGB itself where the
   // proxy covers the pixel (residual: its cues carry the coverage). No gradients. With object_window_margin_px > 0 the
@@ -174,6 +179,10 @@ class Trainer {
   // >= 1: clipped targets bound the output from below at reading x factor.
   void set_clip_overshoot(double factor);
   double clip_overshoot() const { return clip_overshoot_; }
+  // > 0: clipped targets enter the loss as censored at the saturation level
+  // with this relative noise (DnlModelImpl::Loss); 0 = bounds.
+  void set_clip_noise(double relative_noise);
+  double clip_noise() const { return clip_noise_; }
 
  private:
   TrainOptions train_options_;
@@ -183,6 +192,7 @@ class Trainer {
   int64_t step_ = 0;
   double saturation_level_ = 0;
   double clip_overshoot_ = 1;
+  double clip_noise_ = 0;
 };
 
 // "cpu", "cuda" (Error when CUDA is not available) or "auto".

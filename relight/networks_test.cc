@@ -213,6 +213,36 @@ TEST(DnlModelTest, ClippedTargetsBoundTheOutputAtTheLiftedReading) {
   EXPECT_THROW(model->Loss(out, batch, 1.0, 0.9, 0.5), Error);
 }
 
+// The censored model (the cue fit's clip_model censored): below its reading
+// a clipped target costs as the L1 (plus the constant b ln 2 of a Laplace at
+// the reading), above it the cost falls off as b x -log(1 - e^(-d / b) / 2)
+// and still pulls the output up.
+TEST(DnlModelTest, CensoredLossCostsBelowTheReadingAndPushesUpAbove) {
+  const Batch batch = AllClippedFrame();  // every target 1, at or above the level
+  DnlModel model(testing::TinyModelOptions());
+  const double level = 0.9, noise = 0.1;
+  const double level_log = model->encoding().Encode(1.0);
+  const double b = std::sqrt(2.0 / M_PI) * (model->encoding().Encode(1.0 * (1 + noise)) - level_log);
+  auto loss_at = [&](double offset) {
+    ModelOutput out;
+    out.mask_logit = torch::zeros({1, 1, 8, 8});
+    out.rgb_log = torch::full({1, 3, 8, 8}, level_log + offset, torch::requires_grad());
+    const auto rgb = model->Loss(out, batch, 1.0, level, 1.0, noise).rgb;
+    rgb.backward();
+    return std::make_pair(rgb.item<double>(), out.rgb_log.grad().sum().item<double>());
+  };
+  EXPECT_GT(b, 0.0);
+  EXPECT_NEAR(loss_at(-0.2).first, 0.2 + b * std::log(2.0), 1e-5);
+  EXPECT_NEAR(loss_at(0.0).first, b * std::log(2.0), 1e-5);
+  const auto [loss_above, gradient_above] = loss_at(b);
+  EXPECT_NEAR(loss_above, -b * std::log1p(-0.5 * std::exp(-1.0)), 1e-5);
+  EXPECT_LT(gradient_above, 0.0);  // descent raises the output
+  EXPECT_LT(loss_at(20 * b).first, 1e-6);
+  EXPECT_THROW(model->Loss(ModelOutput{torch::zeros({1, 3, 8, 8}), torch::zeros({1, 1, 8, 8})}, batch, 1.0, level,
+                           1.0, -0.1),
+               Error);
+}
+
 TEST(CropTest, CropsEveryPerPixelTensorConsistently) {
   const int64_t h = 12, w = 16;
   const auto rows = torch::arange(h, torch::kFloat).view({1, 1, h, 1}).expand({2, 1, h, w});

@@ -204,11 +204,15 @@ TrainStageResult RunTrainStage(const std::string& workspace, int partition, cons
                  model_options.cue_fit, start.stats.pixels, start.stats.texels_seen, start.texels);
     // The loss bounds clipped targets where the fit lifted them: at the
     // readings alone the network would pull the lifted texels back down.
-    if (model_options.cue_fit == "smooth") trainer->set_clip_overshoot(start.stats.clip_overshoot);
+    if (model_options.cue_fit == "smooth") {
+      trainer->set_clip_overshoot(start.stats.clip_overshoot);
+      trainer->set_clip_noise(start.stats.clip_noise);
+    }
   } else if (fresh && cue_fit.clip_overshoot >= 1) {
     trainer->set_clip_overshoot(cue_fit.clip_overshoot);
   }
   record.Set("clip_overshoot", trainer->clip_overshoot());
+  record.Set("clip_noise", trainer->clip_noise());
 
   FrameOrder order(static_cast<int>(frames.size()), options.optimizer.seed);
   TrainLoopSettings settings;

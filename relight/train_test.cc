@@ -194,6 +194,7 @@ TEST(CheckpointTest, ResumingReproducesTheUninterruptedRun) {
   const fs::path dir = temp.path() / "ckpt";
   Trainer first_half(model_options, train_options);
   first_half.set_clip_overshoot(1.25);  // the warm start's lift travels with the checkpoint
+  first_half.set_clip_noise(0.07);      // and so does its censored model's noise
   std::vector<float> resumed = run(first_half, k);
   SaveCheckpoint(dir, first_half);
   const auto before_resume = first_half.model()->Render(frames[0]);
@@ -201,12 +202,14 @@ TEST(CheckpointTest, ResumingReproducesTheUninterruptedRun) {
   const CheckpointInfo info = ReadCheckpointInfo(dir);
   EXPECT_EQ(info.step, k);
   EXPECT_EQ(info.clip_overshoot, 1.25);
+  EXPECT_EQ(info.clip_noise, 0.07);
   EXPECT_EQ(OptionsToJson(info.model_options), OptionsToJson(model_options));
   EXPECT_EQ(OptionsToJson(info.train_options), OptionsToJson(train_options));
 
   std::unique_ptr<Trainer> second_half = LoadTrainer(dir);
   EXPECT_EQ(second_half->step(), k);
   EXPECT_EQ(second_half->clip_overshoot(), 1.25);
+  EXPECT_EQ(second_half->clip_noise(), 0.07);
   for (float loss : run(*second_half, k)) resumed.push_back(loss);
   ASSERT_EQ(resumed.size(), expected.size());
   for (size_t i = 0; i < expected.size(); ++i) {
@@ -497,6 +500,30 @@ TEST(CheckpointTest, OlderCheckpointsLoadAsDnl) {
   const DnlModel loaded = LoadModel(checkpoint);
   EXPECT_EQ(loaded->options().variant, "dnl");
   EXPECT_EQ(loaded->options().object_window_margin_px, 0);
+}
+
+// Checkpoints from before cue_fit.clip_model lifted clipped readings: they
+// read as "lift" (eval then does not take their warm start for a censored
+// fit), and without clip_noise their loss keeps the bounds.
+TEST(CheckpointTest, OlderCheckpointsFittedClippedReadingsWithTheLift) {
+  TempDir dir;
+  ModelOptions model_options = testing::TinyModelOptions();
+  TrainOptions train_options;
+  train_options.cue_fit.clip_model = "censored";
+  Trainer trainer(model_options, train_options);
+  trainer.set_clip_noise(0.1);
+  const fs::path checkpoint = dir.path() / "checkpoint";
+  SaveCheckpoint(checkpoint, trainer);
+  const fs::path info_path = checkpoint / "checkpoint.json";
+  nlohmann::json info = nlohmann::json::parse(std::ifstream(info_path));
+  ASSERT_EQ(info["train_options"]["cue_fit"]["clip_model"], "censored");
+  EXPECT_EQ(ReadCheckpointInfo(checkpoint).clip_noise, 0.1);
+  info["train_options"]["cue_fit"].erase("clip_model");
+  info.erase("clip_noise");
+  std::ofstream(info_path) << info.dump(2);
+  const CheckpointInfo read = ReadCheckpointInfo(checkpoint);
+  EXPECT_EQ(read.train_options.cue_fit.clip_model, "lift");
+  EXPECT_EQ(read.clip_noise, 0.0);
 }
 
 // Residual checkpoints from before model.mask_correction hold a mask network:
