@@ -522,7 +522,7 @@ namespace {
 // phi(a) / (1 - Phi(a)) = E[Z | Z > a] of a standard normal Z (the inverse
 // Mills ratio).
 double InverseMillsRatio(double a) {
-  if (a > 8) return a + 1.0 / a;  // erfc underflows; the asymptote is within 2 % here
+  if (a > 8) return a + 1.0 / a;  // erfc loses precision; the asymptote is within 0.1 % here
   return std::sqrt(2.0 / M_PI) * std::exp(-0.5 * a * a) / std::erfc(a / std::sqrt(2.0));
 }
 

@@ -179,7 +179,7 @@ class Trainer {
   // >= 1: clipped targets bound the output from below at reading x factor.
   void set_clip_overshoot(double factor);
   double clip_overshoot() const { return clip_overshoot_; }
-  // > 0: clipped targets enter the loss as censored at the saturation level
+  // > 0: clipped targets enter the loss as censored at their readings
   // with this relative noise (DnlModelImpl::Loss); 0 = bounds.
   void set_clip_noise(double relative_noise);
   double clip_noise() const { return clip_noise_; }
