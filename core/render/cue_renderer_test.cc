@@ -62,10 +62,10 @@ TEST(CueRenderer, LambertCueOfPlaneUnderColouredPointLightIsAnalytic) {
 }
 
 // Each cue must equal a plain path-traced render of the scene made of that
-// basis material, including interreflections.
-// Renders the cues of a sphere on a plane lit by `light` and, per basis, the
-// path tracer's image of the same scene in that basis' material; the image
-// means must agree (per-pixel noise is large for sharp lobes).
+// basis material, including interreflections: the cues of a sphere on a
+// plane lit by `light` against, per basis, the path tracer's image of the
+// same scene in that material (image means: per-pixel noise is large for
+// sharp lobes).
 void ExpectEachCueMatchesPathTracer(const std::function<void(Scene*)>& light) {
   auto build = [&](const Material* material, Scene* scene) {
     const Material m = material ? *material : Material::Lambert(Rgb::Ones());
