@@ -20,6 +20,7 @@
 #include "relight/cue_stage.h"
 #include "relight/cue_texture_fit.h"
 #include "relight/cues_baseline.h"
+#include "relight/eval_cue_cache.h"
 #include "relight/plan.h"
 #include "relight/render_stage.h"
 #include "relight/train_stage.h"
@@ -198,6 +199,41 @@ EvalImageResult TruthNoiseFloor(const TruthView& view, const TruthLight& light, 
   return r;
 }
 
+// The cue-frame cache of this eval (eval_cue_cache.h), off with
+// eval.reuse_cue_frames false. Its common key holds everything a frame
+// depends on besides its view, light, samples and seed; `light_keys` gets
+// each truth light's part (environment maps by content).
+EvalCueCache OpenCueCache(const fs::path& root, const EvalOptions& options, const AssetDescription& asset,
+                          const CueFormat& format, const CueRenderSettings& settings, double unit_factor,
+                          const TruthEvalSet& truth, const std::vector<size_t>& selected, render::Scene& scene,
+                          std::vector<json>* light_keys) {
+  light_keys->clear();
+  if (!options.reuse_cue_frames || selected.empty() || truth.lights.empty()) {
+    light_keys->resize(truth.lights.size());
+    return EvalCueCache({}, {}, format);
+  }
+  for (const TruthLight& light : truth.lights) {
+    json key = {{"type", light.type}, {"position_m", ToJson(light.position_m)},
+                {"direction_to_light", ToJson(light.direction_to_light)}, {"rgb", ToJson(light.rgb)},
+                {"scale", light.scale}};
+    if (!light.envmap.empty()) key["envmap"] = HashFile(light.envmap);
+    light_keys->push_back(key);
+  }
+  const Camera probe_camera(truth.intrinsics, truth.views[selected[0]].cam_from_world);
+  json common = {{"version", 1},
+                 {"mesh", HashFile(asset.mesh)},
+                 {"normal_map", asset.normal_map.empty() ? 0 : HashFile(asset.normal_map)},
+                 {"support_plane", asset.support_plane.ToJson()},
+                 {"format", format.ToJson()},
+                 {"intrinsics", ToJson(truth.intrinsics)},
+                 {"unit_factor", unit_factor},
+                 {"max_depth", settings.max_depth},
+                 {"denoise", settings.denoise},
+                 {"renderer", RendererFingerprint(scene, probe_camera, ToCueLight(truth.lights[0], unit_factor),
+                                                  settings, format)}};
+  return EvalCueCache(root / kEvalCueCacheDir, std::move(common), format);
+}
+
 }  // namespace
 
 EvalSummary RunEval(const std::string& workspace, const std::string& truth_json, const std::string& out_dir,
@@ -345,6 +381,10 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
   }
   const size_t view_count = selected.size();
 
+  std::vector<json> light_keys;
+  EvalCueCache cue_cache = OpenCueCache(root, options, asset, format, settings, unit_factor, truth, selected,
+                                        *scene, &light_keys);
+
   StageRun out(guard ? AtomicDir(out_dir, *guard) : AtomicDir(out_dir), record);
   std::vector<EvalImageResult> results, floors;
   json zooms = json::array();  // truth | methods strips zoomed on the object, one per image
@@ -372,7 +412,13 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
       Image cues;
       {
         auto timer = record.Time("cues");
-        cues = RenderCueFrame(*scene, camera, ToCueLight(light, unit_factor), light_settings, format);
+        const json key = {{"cam_from_world", ToJson(view.cam_from_world)},
+                          {"light", light_keys[l]},
+                          {"samples_per_pixel", light_settings.samples_per_pixel},
+                          {"seed", light_settings.seed}};
+        cues = cue_cache.Get(key, [&] {
+          return RenderCueFrame(*scene, camera, ToCueLight(light, unit_factor), light_settings, format);
+        });
       }
       if (view.twins.count(light.name) > 0 || view.halves.count(light.name) > 0) {
         floors.push_back(TruthNoiseFloor(view, light, reference, matte, truth, options.clip_radiance));
@@ -423,6 +469,11 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
     }
   }
   progress.Finish();
+  const int cues_removed = cue_cache.RemoveUnused();
+  if (cue_cache.enabled()) {
+    spdlog::info("eval: cue frames: {} reused, {} rendered ({}; {} unused removed)", cue_cache.hits(),
+                 cue_cache.misses(), (root / kEvalCueCacheDir).string(), cues_removed);
+  }
 
   json header = {
       {"workspace", root.string()},
@@ -444,7 +495,9 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
       {"capture_transfer", capture_transfer.empty() ? json(nullptr) : json(capture_transfer)},
       {"cues", {{"samples_per_pixel", settings.samples_per_pixel},
                 {"training_samples_per_pixel", training_spp},
-                {"max_depth", settings.max_depth}}},
+                {"max_depth", settings.max_depth},
+                {"reused", cue_cache.hits()},
+                {"rendered", cue_cache.misses()}}},
       {"cues_only", {{"training_frames", baseline_frames},
                      {"resolution_px", options.baseline_resolution_px},
                      {"pixels", baseline ? baseline->pixels_used() : 0}}},

@@ -48,6 +48,9 @@ class RunRecord;
 
 namespace relit::relight {
 
+// Where eval keeps its cue frames between runs (EvalOptions::reuse_cue_frames).
+inline constexpr const char* kEvalCueCacheDir = "relight/eval_cues";
+
 // Key `eval:` of the relight section.
 struct EvalOptions {
   // Methods to score, in table order: model, model_point_light, cue_fit,
@@ -73,6 +76,10 @@ struct EvalOptions {
   // capture.json records the transfer, not this level. 0 = no clip.
   double clip_radiance = kCaptureWhiteLevel;
   bool write_images = true;         // PNGs of renders, error maps and GT
+  // Keep the rendered cue frames in W/relight/eval_cues/ and read them back
+  // on the next eval of the same proxy, views, lights and cue settings
+  // (eval_cue_cache.h): they are most of an eval's time.
+  bool reuse_cue_frames = true;
 
   static const OptionFields<EvalOptions>& Fields();
   void Check() const;  // across fields; ranges and choices: CheckOptions

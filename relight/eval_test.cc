@@ -294,6 +294,55 @@ TEST_F(EvalTest, CueFitReusesTheWarmStartOnlyWhenItIsTheSameFit) {
   EXPECT_NE(why_not.find("resolution"), std::string::npos) << why_not;
 }
 
+// Eval keeps its cue frames in W/relight/eval_cues/ (eval_cue_cache.h): a
+// second eval with the same inputs renders none and scores the same to the
+// bit; an unreadable cached frame is rendered again; other render settings
+// render every frame, and the frames no run used are then removed.
+TEST_F(EvalTest, ReusesCueFramesOnlyForTheSameInputs) {
+  const std::string cache = dir_ + "/ws/" + kEvalCueCacheDir;
+  auto eval = [&](int spp, const std::string& name) {
+    const std::string config = dir_ + "/" + name + ".yaml";
+    // A seed of its own: no other test's frames share these keys.
+    std::ofstream(config) << "eval: {samples_per_pixel: " << spp
+                          << ", seed: 77, methods: [cues_only], write_images: false}\n";
+    const std::string out = dir_ + "/" + name;
+    EXPECT_EQ(RunCli({"relit-relight", "eval", "--workspace", dir_ + "/ws", "--config", config, "--truth", truth_,
+                      "--out", out, "--log-level", "warn"}),
+              0);
+    return ReadJsonFile(out + "/eval.json", "eval", 1);
+  };
+  auto cached_frames = [&] {
+    int n = 0;
+    for (const auto& entry : fs::directory_iterator(cache)) n += entry.path().extension() == ".exr";
+    return n;
+  };
+  const json first = eval(4, "eval_cache_1");
+  const int images = static_cast<int>(first["images"].size());
+  ASSERT_GT(images, 0);
+  EXPECT_EQ(first["cues"]["rendered"].get<int>(), images);
+  EXPECT_EQ(first["cues"]["reused"].get<int>(), 0);
+
+  const json second = eval(4, "eval_cache_2");
+  EXPECT_EQ(second["cues"]["reused"].get<int>(), images);
+  EXPECT_EQ(second["cues"]["rendered"].get<int>(), 0);
+  EXPECT_EQ(second["images"], first["images"]) << "a reread cue frame must score as the render it stands for";
+
+  fs::path victim;
+  for (const auto& entry : fs::directory_iterator(cache)) {
+    if (entry.path().extension() == ".exr") victim = entry.path();
+  }
+  fs::resize_file(victim, 100);
+  const json third = eval(4, "eval_cache_3");
+  EXPECT_EQ(third["cues"]["rendered"].get<int>(), 1);
+  EXPECT_EQ(third["cues"]["reused"].get<int>(), images - 1);
+  EXPECT_EQ(third["images"], first["images"]);
+
+  const json other = eval(5, "eval_cache_4");
+  EXPECT_EQ(other["cues"]["rendered"].get<int>(), images);
+  EXPECT_NE(other["images"], first["images"]);
+  EXPECT_EQ(cached_frames(), images) << "the frames no run used stay in " << cache;
+}
+
 TEST(EvalErrors, MissingEvalImageIsNamed) {
   const std::string dir = (fs::temp_directory_path() / ("relit_eval_missing_" + std::to_string(::getpid()))).string();
   const std::string truth = WriteTruth(dir, false);

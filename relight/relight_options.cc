@@ -244,7 +244,10 @@ RELIT_OPTION_FIELDS(EvalOptions,
     .Add("clip_radiance", &S::clip_radiance, 0.0, 1e9,
          "the capture's linear white level: render and truth are clipped per RGB channel to [0, this] before "
          "scoring; 0 = no clip (\"Evaluation\")")
-    .Add("write_images", &S::write_images, "PNGs of renders, error maps and the truth"))
+    .Add("write_images", &S::write_images, "PNGs of renders, error maps and the truth")
+    .Add("reuse_cue_frames", &S::reuse_cue_frames,
+         "keep the eval views' cue frames in W/relight/eval_cues/ and read them back when proxy, views, lights, "
+         "cue settings and renderer are unchanged (most of an eval's time); false = render every run"))
 
 void EvalOptions::Check() const {
   RELIT_REQUIRE(!methods.empty(), "methods must list at least one of model, model_point_light, cue_fit, cues_only");
