@@ -23,19 +23,31 @@ namespace relit::relight {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
+namespace {
+
+constexpr uint64_t kFnvOffsetBasis = 1469598103934665603ull;
+
+// One FNV-1a step over `n` bytes.
+uint64_t Fnv1a(uint64_t hash, const char* bytes, size_t n) {
+  for (size_t i = 0; i < n; ++i) hash = (hash ^ static_cast<unsigned char>(bytes[i])) * 1099511628211ull;
+  return hash;
+}
+
+}  // namespace
+
 uint64_t HashFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   RELIT_REQUIRE(in, "cannot read ", path);
-  uint64_t hash = 1469598103934665603ull;
+  uint64_t hash = kFnvOffsetBasis;
   char buffer[1 << 16];
   while (in) {
     in.read(buffer, sizeof(buffer));
-    for (std::streamsize i = 0; i < in.gcount(); ++i) {
-      hash = (hash ^ static_cast<unsigned char>(buffer[i])) * 1099511628211ull;
-    }
+    hash = Fnv1a(hash, buffer, static_cast<size_t>(in.gcount()));
   }
   return hash;
 }
+
+uint64_t HashString(const std::string& bytes) { return Fnv1a(kFnvOffsetBasis, bytes.data(), bytes.size()); }
 
 std::string CaptureTransfer(const std::string& workspace_root) {
   const std::string path = CaptureFilePath(workspace_root);

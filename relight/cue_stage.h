@@ -64,5 +64,7 @@ CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions&
 
 // 64-bit FNV-1a of a file's bytes (inputs fingerprint for resuming).
 uint64_t HashFile(const std::string& path);
+// The same hash of a string's bytes.
+uint64_t HashString(const std::string& bytes);
 
 }  // namespace relit::relight

@@ -10,17 +10,12 @@
 
 #include "core/atomic_output.h"
 #include "core/error.h"
+#include "relight/cue_stage.h"
 
 namespace relit::relight {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
-
-uint64_t HashString(const std::string& bytes) {
-  uint64_t hash = 1469598103934665603ull;
-  for (unsigned char c : bytes) hash = (hash ^ c) * 1099511628211ull;
-  return hash;
-}
 
 uint64_t RendererFingerprint(render::Scene& scene, const Camera& camera, const CueLight& light,
                              const CueRenderSettings& settings, const CueFormat& format) {
@@ -90,8 +85,7 @@ int EvalCueCache::RemoveUnused() {
     if (used_.count(path.stem().string()) > 0) continue;
     const auto written = fs::last_write_time(path, ec);
     if (ec || written >= start_) continue;
-    removed += path.extension() == ".exr" && fs::remove(path, ec);
-    if (path.extension() == ".json") fs::remove(path, ec);
+    if (fs::remove(path, ec) && path.extension() == ".exr") ++removed;
   }
   return removed;
 }

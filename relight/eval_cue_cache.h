@@ -26,9 +26,6 @@
 
 namespace relit::relight {
 
-// 64-bit FNV-1a of a string (cue_stage.h's HashFile for files).
-uint64_t HashString(const std::string& bytes);
-
 // Hash of a probe render: `scene` under `light` from `camera` shrunk to
 // about 32 pixels wide at 2 samples per pixel, with `settings`' depth,
 // denoising and seed. Equal for equal renderers (the render is seeded).
