@@ -82,7 +82,10 @@ int EvalCueCache::RemoveUnused() {
   for (const fs::directory_entry& entry : fs::directory_iterator(dir_, ec)) {
     const fs::path& path = entry.path();
     if (path.extension() != ".exr" && path.extension() != ".json") continue;
-    if (used_.count(path.stem().string()) > 0) continue;
+    // Only the cache's own <16 hex digits> names: nothing else there is deleted.
+    const std::string stem = path.stem().string();
+    if (stem.size() != 16 || stem.find_first_not_of("0123456789abcdef") != std::string::npos) continue;
+    if (used_.count(stem) > 0) continue;
     const auto written = fs::last_write_time(path, ec);
     if (ec || written >= start_) continue;
     if (fs::remove(path, ec) && path.extension() == ".exr") ++removed;

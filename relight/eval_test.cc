@@ -337,7 +337,11 @@ TEST_F(EvalTest, ReusesCueFramesOnlyForTheSameInputs) {
   EXPECT_EQ(third["cues"]["reused"].get<int>(), images - 1);
   EXPECT_EQ(third["images"], first["images"]);
 
+  const fs::path foreign = fs::path(cache) / "notes.json";  // not the cache's: never deleted
+  std::ofstream(foreign) << "{}\n";
+  fs::last_write_time(foreign, fs::last_write_time(victim) - std::chrono::hours(1));
   const json other = eval(5, "eval_cache_4");
+  EXPECT_TRUE(fs::exists(foreign)) << foreign;
   EXPECT_EQ(other["cues"]["rendered"].get<int>(), images);
   EXPECT_NE(other["images"], first["images"]);
   EXPECT_EQ(cached_frames(), images) << "the frames no run used stay in " << cache;
