@@ -37,6 +37,7 @@ AssetDescription DescribeWorkspace(const std::string& workspace, ModelSet models
   asset.cue_max_depth = cues.max_depth;
   asset.mesh = (root / cues.mesh).string();
   if (!cues.normal_map.empty()) asset.normal_map = (root / cues.normal_map).string();
+  if (!cues.cue_weights.empty()) asset.cue_weights = (root / cues.cue_weights).string();
   asset.support_plane = cues.support_plane;
   double distance = 0;
   for (const CueFrameRecord& f : cues.frames) {
@@ -80,6 +81,7 @@ AssetDescription ReadAsset(const std::string& dir) {
   asset.support_plane = SupportPlane::FromJson(cues.value("support_plane", json()), path, root.string());
   asset.mesh = (root / JsonField(j, "mesh", path).get<std::string>()).string();
   if (j.contains("normal_map")) asset.normal_map = (root / JsonString(j, "normal_map", path)).string();
+  if (cues.contains("cue_weights")) asset.cue_weights = (root / JsonString(cues, "cue_weights", path)).string();
   for (const json& p : JsonField(j, "partitions", path)) {
     const std::string model = p.value("model", std::string());
     asset.partition_models.push_back(model.empty() ? "" : (root / model).string());
@@ -95,6 +97,7 @@ void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRe
   const fs::path root = out.path();
   fs::copy_file(asset.mesh, root / "proxy.obj");
   if (!asset.normal_map.empty()) fs::copy_file(asset.normal_map, root / "proxy_normals.exr");
+  if (!asset.cue_weights.empty()) fs::copy_file(asset.cue_weights, root / "proxy_cue_weights.exr");
   if (!asset.support_plane.albedo_map.empty()) {  // the manifest names it by file name (SupportPlane::ToJson)
     fs::copy_file(asset.support_plane.albedo_map, root / fs::path(asset.support_plane.albedo_map).filename());
   }
@@ -153,6 +156,7 @@ void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRe
                    {"partitions", partitions},
                    {"relit_version", RelitVersion()}});
   if (!asset.normal_map.empty()) manifest["normal_map"] = "proxy_normals.exr";
+  if (!asset.cue_weights.empty()) manifest["cues"]["cue_weights"] = "proxy_cue_weights.exr";
   WriteJsonFile((root / "manifest.json").string(), AssetDescription::kKind, AssetDescription::kVersion, manifest);
   AtomicWriteFile(root / "README.md",
                   "# relit relightable asset\n\n"
@@ -164,6 +168,9 @@ void ExportAsset(const std::string& workspace, const std::string& out_dir, RunRe
                   "  when present: its object-space normal map (float RGB, read at the UVs).\n"
                   "- `support_albedo.exr`, when present: the board's albedo map measured on the capture (the cue\n"
                   "  scenes' support plane, see `cues.support_plane` in the manifest).\n"
+                  "- `proxy_cue_weights.exr`, when present (`cues.cue_weights`): the proxy's fitted weights of the\n"
+                  "  5 basis materials (float, cue0.R .. cue4.B); the cue scenes' proxy wears their mixture past the\n"
+                  "  primary hit, so the cues hold the inter-reflections between its parts.\n"
                   "- `partitions/KK/`: neural texture and networks (LibTorch `model.pt` + `checkpoint.json`).\n"
                   "- `textures/KK.exr`: level 0 of each neural texture, for inspection.\n\n"
                   "Render it with `relit-render --asset THIS_FOLDER --views views.json --out DIR` (docs/relight.md\n"

@@ -41,6 +41,9 @@ struct AssetDescription : ObjectLayout {
   int cue_max_depth = 4;             // bounces the cues were rendered with
   std::string mesh;                  // absolute path of the proxy mesh
   std::string normal_map;            // absolute path of its normal map ("" = none)
+  // Absolute path of the proxy's fitted cue weights (cues.secondary_material
+  // fitted: what the proxy wears past the primary hit); "" = the basis.
+  std::string cue_weights;
   SupportPlane support_plane;        // context geometry of every cue scene (support_plane.h)
   std::vector<std::string> partition_models;  // absolute checkpoint folders; "" = not trained
 };

@@ -136,8 +136,21 @@ nlohmann::json CueLight::ToJson() const {
   return {};
 }
 
+Image ReadCueWeights(const std::string& path) {
+  RELIT_REQUIRE(std::filesystem::exists(path), "proxy cue weights ", path,
+                " do not exist: run `relit-relight cues` again");
+  const Image image = ReadImage(path);
+  const std::vector<std::string> channels = render::CueChannelNames(kCueChannelCount / 3);
+  for (const std::string& name : channels) {
+    RELIT_REQUIRE(image.ChannelIndex(name) >= 0, path, " has no channel '", name,
+                  "': not a proxy cue weights file; run `relit-relight cues` again");
+  }
+  return image.SelectChannels(channels);
+}
+
 std::unique_ptr<render::Scene> LoadProxyScene(const std::string& mesh_path, const SupportPlane& plane,
-                                              const std::string& normal_map_path) {
+                                              const std::string& normal_map_path,
+                                              const std::string& cue_weights_path) {
   RELIT_REQUIRE(std::filesystem::exists(mesh_path), "proxy mesh ", mesh_path,
                 " does not exist: run the reconstruct stage first");
   render::TriangleMesh mesh = render::LoadMesh(mesh_path);
@@ -152,6 +165,12 @@ std::unique_ptr<render::Scene> LoadProxyScene(const std::string& mesh_path, cons
     RELIT_REQUIRE(std::filesystem::exists(normal_map_path), "proxy normal map ", normal_map_path,
                   " does not exist: run the reconstruct stage again");
     material.normal_map = render::Texture::FromFile(normal_map_path, false);
+  }
+  if (!cue_weights_path.empty()) {
+    const Image weights = ReadCueWeights(cue_weights_path);
+    for (int k = 0; k < kCueChannelCount / 3; ++k) {
+      material.cue_weights.push_back(render::Texture::FromImage(weights.SelectChannels({3 * k, 3 * k + 1, 3 * k + 2}), false));
+    }
   }
   scene->AddObject(std::move(mesh), material, kProxyObjectId);
   AddSupportPlane(plane, scene.get());
@@ -232,6 +251,12 @@ Image RenderCueFrame(render::Scene& scene, const Camera& camera, const CueLight&
   options.alpha_object_ids = {kProxyObjectId};
   if (format.is_sh()) return RenderShFrame(scene, camera, light, options);
   const std::vector<render::CueBasis> bases = SelectBases(format.bases);
+  for (const render::Scene::Instance& instance : scene.instances()) {
+    const size_t fitted = scene.material(instance.material).cue_weights.size();
+    RELIT_REQUIRE(fitted == 0 || fitted == bases.size(), "the proxy's fitted cue weights are for ", fitted,
+                  " bases but the cues have ", bases.size(), " (", format.Describe(),
+                  "): cues.secondary_material fitted needs the default bases");
+  }
   // A point or directional light's direct light is exact and holds the hard
   // shadow edges: when denoising, it is rendered apart and left unfiltered.
   const bool direct_apart =

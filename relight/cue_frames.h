@@ -100,10 +100,19 @@ Image ReadCueFrame(const std::string& path, const CueFormat& format = {});
 
 // The proxy mesh (OBJ with UVs, world frame) as a cue scene, shaded with
 // its normal map when `normal_map_path` names one (reconstruct's
-// proxy_normals.exr; "" = the mesh normals). Throws relit::Error naming the
-// file when it cannot be read or has no UVs.
+// proxy_normals.exr; "" = the mesh normals). With `cue_weights_path` (the
+// cue stage's proxy_cue_weights.exr, cues.secondary_material fitted) the
+// proxy wears past the primary hit the mixture of the 5 default bases those
+// weights give (render::Material::cue_weights). Throws relit::Error naming
+// the file when it cannot be read, has no UVs or lacks a weight channel.
 std::unique_ptr<render::Scene> LoadProxyScene(const std::string& mesh_path, const SupportPlane& plane = {},
-                                              const std::string& normal_map_path = "");
+                                              const std::string& normal_map_path = "",
+                                              const std::string& cue_weights_path = "");
+
+// The fitted cue weights' file: 15 float channels cue0.R .. cue4.B (the
+// weight of each default basis per colour), rows from v = 1, as
+// CueTextureFit::Weight. Throws relit::Error naming the file.
+Image ReadCueWeights(const std::string& path);
 
 // Renders one cue frame (channels as format.Channels()). Replaces the
 // scene's lights with `light`. Not thread-safe for the same scene (the

@@ -14,7 +14,9 @@
 #include "core/run_record.h"
 #include "core/capture_file.h"
 #include "core/workspace.h"
+#include "core/render/cue_renderer.h"
 #include "relight/cue_frames.h"
+#include "relight/cue_texture_fit.h"
 #include "relight/support_plane.h"
 #include "relight/support_albedo.h"
 
@@ -61,6 +63,7 @@ CuesFile ReadCuesFile(const std::string& path) {
   file.camera = IntrinsicsFromJson(JsonField(j, "camera", path), path + ": camera");
   file.mesh = JsonField(j, "mesh", path).get<std::string>();
   if (j.contains("normal_map")) file.normal_map = JsonString(j, "normal_map", path);
+  if (j.contains("cue_weights")) file.cue_weights = JsonString(j, "cue_weights", path);
   file.flash_intensity = JsonNumber(j, "flash_intensity", path);
   file.samples_per_pixel = JsonInt(j, "samples_per_pixel", path);
   file.max_depth = JsonInt(j, "max_depth", path);
@@ -96,6 +99,7 @@ void WriteCuesFile(const std::string& path, const CuesFile& file) {
                 {{"camera", ToJson(file.camera)},
                  {"mesh", file.mesh},
                  {"normal_map", file.normal_map},
+                 {"cue_weights", file.cue_weights},
                  {"flash_intensity", file.flash_intensity},
                  {"samples_per_pixel", file.samples_per_pixel},
                  {"max_depth", file.max_depth},
@@ -121,12 +125,15 @@ std::string NormalMapPath(const fs::path& root, const CuesFile& cues) {
 // The support plane's albedos measured on the phone V frames
 // (support_albedo.h): the table's, unless the options give it (the default
 // grey when the frames do not show enough of it lit; a warning says why), and
-// the board's albedo map, written into `dir`.
-void MeasureSupportAlbedo(const fs::path& root, const fs::path& mesh_path, const CamerasFile& cameras,
-                          const CueStageOptions& options, const fs::path& dir, CuesFile* cues, RunRecord& record) {
+// the board's albedo map, written into `dir`. Returns the flash's scale the
+// paper gave (zero when not measured).
+Eigen::Vector3d MeasureSupportAlbedo(const fs::path& root, const fs::path& mesh_path, const CamerasFile& cameras,
+                                     const CueStageOptions& options, const fs::path& dir, CuesFile* cues,
+                                     RunRecord& record) {
   const bool measure_table = options.table_albedo.empty();
   if (!measure_table) cues->support_plane.table_albedo = Eigen::Vector3d(options.table_albedo.data());
-  if (!measure_table && !options.board_albedo_map) return;
+  const bool need_scale = options.secondary_material == "fitted";
+  if (!measure_table && !options.board_albedo_map && !need_scale) return Eigen::Vector3d::Zero();
   auto timer = record.Time("support_albedo");
   const auto scene = LoadProxyScene(mesh_path.string(), cues->support_plane, NormalMapPath(root, *cues));
   std::vector<SupportAlbedoFrame> frames;
@@ -153,11 +160,13 @@ void MeasureSupportAlbedo(const fs::path& root, const fs::path& mesh_path, const
     record.Set("table_albedo", std::vector<double>{albedo.x(), albedo.y(), albedo.z()});
     cues->support_plane.table_albedo = albedo;
   }
-  if (!options.board_albedo_map) return;
+  if (need_scale) record.Set("flash_scale", std::vector<double>{estimate.flash_scale.x(), estimate.flash_scale.y(),
+                                                                estimate.flash_scale.z()});
+  if (!options.board_albedo_map) return estimate.flash_scale;
   if (estimate.board_albedo.empty()) {
     spdlog::warn("cues: the board's albedo map could not be measured (no frame shows enough lit paper); the cues "
                  "assume the bare print");
-    return;
+    return estimate.flash_scale;
   }
   const fs::path map_path = dir / "support_albedo.exr";
   WriteImage(map_path.string(), estimate.board_albedo);
@@ -166,6 +175,87 @@ void MeasureSupportAlbedo(const fs::path& root, const fs::path& mesh_path, const
                estimate.board_albedo.width(), estimate.board_albedo.height(),
                100 * estimate.board_measured_fraction);
   record.Set("board_albedo_measured_fraction", estimate.board_measured_fraction);
+  return estimate.flash_scale;
+}
+
+// Renders every frame of `cues` missing in `dir` (a frame already there is
+// kept from an interrupted run) on `scene`.
+void RenderFrames(render::Scene& scene, const CuesFile& cues, const CamerasFile& cameras,
+                  const CueStageOptions& options, const fs::path& dir, const char* label, CueStageSummary* summary) {
+  CueRenderSettings settings;
+  settings.samples_per_pixel = options.samples_per_pixel;
+  settings.max_depth = options.max_depth;
+  settings.denoise = options.denoise;
+  Progress progress(label, static_cast<int64_t>(cues.frames.size()));
+  for (size_t i = 0; i < cues.frames.size(); ++i) {
+    const CueFrameRecord& r = cues.frames[i];
+    const fs::path file = dir / fs::path(r.file).filename();
+    if (fs::exists(file)) {
+      ++summary->frames_reused;
+    } else {
+      // A per-frame seed keeps each frame's noise independent and reproducible.
+      settings.seed = options.seed * 1000003ull + i;
+      const Camera camera(cameras.undistorted_view, r.cam_from_world);
+      const Image frame = RenderCueFrame(scene, camera, CueLight::Point(r.light_position_m, options.flash_intensity),
+                                         settings, cues.format);
+      WriteImage(file.string(), frame);  // atomic per file
+      ++summary->frames_rendered;
+    }
+    progress.Advance();
+  }
+  progress.Finish();
+}
+
+// cues.secondary_material fitted: the cue fit (cue_texture_fit.h) of the
+// frames rendered with the basis in `first_dir`, on every frame with an
+// image, a matte and a reliable flash, its weights divided by the flash's
+// scale (reflectances, as the support plane's albedos), written to `path`.
+void FitProxyCueWeights(const fs::path& root, const CuesFile& cues, const CamerasFile& cameras,
+                        const ProxyFile& proxy, const CueStageOptions& options, const fs::path& first_dir,
+                        const Eigen::Vector3d& flash_scale, const fs::path& path, RunRecord& record) {
+  auto timer = record.Time("fit_secondary_material");
+  CueFitOptions fit_options;
+  fit_options.saturation_level = ResolveSaturationLevel(fit_options.saturation_level, CaptureTransfer(root.string()));
+  CueTextureFit fit(options.secondary_fit_resolution_px, fit_options);
+  int frames = 0;
+  Progress progress("cues: fit the secondary material", static_cast<int64_t>(cues.frames.size()));
+  for (const CueFrameRecord& r : cues.frames) {
+    const CalibratedFrame* frame = cameras.Find(r.name);
+    const ViewMatte* matte = proxy.Find(r.name);
+    if (r.light_reliable && frame != nullptr && !frame->image_linear.empty() && matte != nullptr) {
+      fit.AddFrame(ReadCueFrame((first_dir / fs::path(r.file).filename()).string()),
+                   ReadImage((root / frame->image_linear).string()), ReadImage((root / matte->matte).string()));
+      ++frames;
+    }
+    progress.Advance();
+  }
+  progress.Finish();
+  RELIT_REQUIRE(frames > 0, "cues: secondary_material fitted found no phone V frame with an image, a matte and a "
+                "reliable flash to fit; set cues.secondary_material: basis");
+  const CueFitStats stats = fit.Solve();
+  const int res = fit.resolution();
+  Image weights(res, res, render::CueChannelNames(CueTextureFit::kBases));
+  for (int y = 0; y < res; ++y) {
+    for (int x = 0; x < res; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        // Reflectances; a texel's bases reflect at most all the light (noise
+        // in a fit must not make the bounces gain energy).
+        float sum = 0;
+        for (int k = 0; k < CueTextureFit::kBases; ++k) {
+          sum += weights.at(x, y, 3 * k + c) =
+              std::max(0.0f, fit.Weight(x, y, 3 * k + c)) / static_cast<float>(flash_scale[c]);
+        }
+        if (sum > 1) {
+          for (int k = 0; k < CueTextureFit::kBases; ++k) weights.at(x, y, 3 * k + c) /= sum;
+        }
+      }
+    }
+  }
+  WriteImage(path.string(), weights, PixelStorage::kFloat);
+  record.Set("secondary_fit", stats.ToJson());
+  record.Set("secondary_fit_frames", frames);
+  spdlog::info("cues: secondary material fitted on {} frames ({} pixels, rms residual {:.4f}) -> {}", frames,
+               stats.pixels, stats.rms_residual, path.string());
 }
 
 }  // namespace
@@ -219,11 +309,12 @@ CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions&
   if (without_light > 0) spdlog::warn("cues: {} phone V frames have no flash position and are skipped", without_light);
 
   // Resume only with identical inputs and options.
-  const json fingerprint = {{"options", OptionsToJson(options)},
-                            {"cameras", HashFile(cameras_path.string())},
-                            {"lights", HashFile(lights_path.string())},
-                            {"mesh", HashFile(mesh_path.string())},
-                            {"normal_map", cues.normal_map.empty() ? 0 : HashFile(NormalMapPath(root, cues))}};
+  json fingerprint = {{"options", OptionsToJson(options)},
+                      {"cameras", HashFile(cameras_path.string())},
+                      {"lights", HashFile(lights_path.string())},
+                      {"mesh", HashFile(mesh_path.string())},
+                      {"normal_map", cues.normal_map.empty() ? 0 : HashFile(NormalMapPath(root, cues))}};
+  if (options.secondary_material == "fitted") fingerprint["proxy"] = HashFile(proxy_path.string());  // its mattes
   const fs::path partial = root / "relight" / ".cues.partial";
   const fs::path fingerprint_path = partial / "fingerprint.json";
   bool resume = false;
@@ -245,6 +336,7 @@ CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions&
     threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                     options.threads);
   }
+  Eigen::Vector3d flash_scale = Eigen::Vector3d::Zero();
   if (options.support_plane) {
     cues.support_plane.enabled = true;
     cues.support_plane.board = cameras.board;
@@ -252,36 +344,37 @@ CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions&
     cues.support_plane.ink_albedo = options.ink_albedo;
     cues.support_plane.paper_margin_m = options.paper_margin_m;
     cues.support_plane.table_half_size_m = std::max(1.5, 20 * proxy.object_radius_m);
-    MeasureSupportAlbedo(root, mesh_path, cameras, options, partial, &cues, record);
+    flash_scale = MeasureSupportAlbedo(root, mesh_path, cameras, options, partial, &cues, record);
     cues.support_plane.Check(cameras_path.string());
   }
-  auto scene = LoadProxyScene(mesh_path.string(), cues.support_plane, NormalMapPath(root, cues));
-  CueRenderSettings settings;
-  settings.samples_per_pixel = options.samples_per_pixel;
-  settings.max_depth = options.max_depth;
-  settings.denoise = options.denoise;
+  bool fitted = options.secondary_material == "fitted";
   CueStageSummary summary;
+  if (fitted && !(flash_scale.minCoeff() > 0)) {
+    spdlog::warn("cues: secondary_material fitted needs the flash's scale from the board's paper, which no frame "
+                 "shows lit: the proxy wears the basis past the primary hit");
+    fitted = false;
+  }
+  record.Set("secondary_material", fitted ? "fitted" : "basis");
+  if (fitted) {
+    // The frames rendered with the basis first (kept in `first_dir` until the fit is written).
+    const fs::path first_dir = partial / "basis", weights_path = partial / "proxy_cue_weights.exr";
+    if (!fs::exists(weights_path)) {
+      fs::create_directories(first_dir);
+      auto scene = LoadProxyScene(mesh_path.string(), cues.support_plane, NormalMapPath(root, cues));
+      {
+        auto timer = record.Time("render_basis_cues");
+        RenderFrames(*scene, cues, cameras, options, first_dir, "cues (basis)", &summary);
+      }
+      FitProxyCueWeights(root, cues, cameras, proxy, options, first_dir, flash_scale, weights_path, record);
+    }
+    fs::remove_all(first_dir);
+    cues.cue_weights = "relight/cues/proxy_cue_weights.exr";
+  }
+  auto scene = LoadProxyScene(mesh_path.string(), cues.support_plane, NormalMapPath(root, cues),
+                              fitted ? (partial / "proxy_cue_weights.exr").string() : "");
   {
     auto timer = record.Time("render_cues");
-    Progress progress("cues", static_cast<int64_t>(cues.frames.size()));
-    for (size_t i = 0; i < cues.frames.size(); ++i) {
-      const CueFrameRecord& r = cues.frames[i];
-      const fs::path file = partial / fs::path(r.file).filename();
-      if (fs::exists(file)) {
-        ++summary.frames_reused;
-      } else {
-        // A per-frame seed keeps each frame's noise independent and reproducible.
-        settings.seed = options.seed * 1000003ull + i;
-        const Camera camera(cameras.undistorted_view, r.cam_from_world);
-        const Image frame =
-            RenderCueFrame(*scene, camera, CueLight::Point(r.light_position_m, options.flash_intensity), settings,
-                           cues.format);
-        WriteImage(file.string(), frame);  // atomic per file
-        ++summary.frames_rendered;
-      }
-      progress.Advance();
-    }
-    progress.Finish();
+    RenderFrames(*scene, cues, cameras, options, partial, "cues", &summary);
   }
   WriteCuesFile((partial / "cues.json").string(), cues);
   fs::remove(fingerprint_path);
@@ -292,8 +385,9 @@ CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions&
   const fs::path target = root / "relight" / "cues";
   fs::remove_all(target);
   fs::rename(partial, target);
-  spdlog::info("cues: {} frames ({} rendered, {} kept from an interrupted run) -> {}", cues.frames.size(),
-               summary.frames_rendered, summary.frames_reused, target.string());
+  spdlog::info("cues: {} frames ({} renders, {} kept from an interrupted run; past the primary hit the proxy wears "
+               "{}) -> {}", cues.frames.size(), summary.frames_rendered, summary.frames_reused,
+               fitted ? "its fitted material" : "the basis", target.string());
   return summary;
 }
 

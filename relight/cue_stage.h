@@ -6,7 +6,11 @@
 // in cue_frames.h) + run.json. Frames are rendered into
 // W/relight/.cues.partial/ first; an interrupted run with the same inputs and
 // options continues there (finished frames are kept), and the folder is only
-// renamed to cues/ once every frame is done.
+// renamed to cues/ once every frame is done. With cues.secondary_material
+// fitted the frames are rendered with the basis first (.cues.partial/basis/),
+// fitted (proxy_cue_weights.exr, kept: a resumed run fits only when it is
+// missing) and rendered again with the proxy wearing that fit past the
+// primary hit (stage_options.h).
 #pragma once
 
 #include <string>
@@ -39,6 +43,9 @@ struct CuesFile {
   Intrinsics camera;              // undistorted pinhole phone V camera
   std::string mesh;               // proxy mesh used, relative to the workspace
   std::string normal_map;         // its normal map, relative to the workspace; "" (or absent) = none
+  // The proxy's fitted cue weights past the primary hit (cues.secondary_material
+  // fitted), relative to the workspace; "" (or absent) = the basis.
+  std::string cue_weights;
   double flash_intensity = 1;     // W/sr of the point light the cues assume
   int samples_per_pixel = 0;
   int max_depth = 0;
@@ -55,7 +62,7 @@ std::string CaptureTransfer(const std::string& workspace_root);
 void WriteCuesFile(const std::string& path, const CuesFile& file);
 
 struct CueStageSummary {
-  int frames_rendered = 0;
+  int frames_rendered = 0;        // renders (secondary_material fitted: both renderings)
   int frames_reused = 0;          // kept from an interrupted run
 };
 

@@ -231,6 +231,7 @@ EvalCueCache OpenCueCache(const fs::path& root, const EvalOptions& options, cons
                  {"denoise", settings.denoise},
                  {"renderer", RendererFingerprint(scene, probe_camera, ToCueLight(truth.lights[0], unit_factor),
                                                   settings, format)}};
+  if (!asset.cue_weights.empty()) common["cue_weights"] = HashFile(asset.cue_weights);  // absent: keys of older caches hold
   return EvalCueCache(root / kEvalCueCacheDir, std::move(common), format);
 }
 
@@ -352,7 +353,7 @@ EvalSummary RunEval(const std::string& workspace, const std::string& truth_json,
   settings.samples_per_pixel = options.samples_per_pixel > 0 ? options.samples_per_pixel : render.samples_per_pixel;
   settings.max_depth = asset.cue_max_depth;  // the cues the networks were trained on
   settings.denoise = render.denoise_cues;
-  const std::unique_ptr<render::Scene> scene = LoadProxyScene(asset.mesh, asset.support_plane, asset.normal_map);
+  const std::unique_ptr<render::Scene> scene = LoadProxyScene(asset.mesh, asset.support_plane, asset.normal_map, asset.cue_weights);
   const int training_spp = ReadCuesFile((root / "relight/cues/cues.json").string()).samples_per_pixel;
   // More samples than training is fine and better (the demo: 8-spp training
   // cues, eval cues 8 / 32 / 64 spp give 16.49 / 16.64 / 16.76 dB and far

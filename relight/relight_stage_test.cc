@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/image.h"
+#include "core/median.h"
 #include "core/run_record.h"
 #include "core/test_dir.h"
 #include "core/json_file.h"
@@ -30,6 +31,8 @@
 #include "relight/test_workspace.h"
 #include "relight/train_stage.h"
 #include "relight/warm_start.h"
+#include "tools/synth/scene.h"
+#include "tools/synth/synth_options.h"
 
 namespace relit::relight {
 namespace {
@@ -448,6 +451,94 @@ TEST_F(RelightStageTest, AugmentFineTunesThePointLightModelUnderEnvironmentMaps)
             (fs::path(dir_) / "relight/partitions/00/checkpoint").string());
   RunAugmentStage(dir_, 0, brighter, SmallTraining(24), false, record);
   EXPECT_EQ(DescribeWorkspace(dir_).partition_models[0], (dir / "checkpoint").string());
+}
+
+// cues.secondary_material fitted: the cue stage renders the frames with the
+// basis, fits the cue weights, and renders them again with the proxy
+// wearing that mixture past the primary hit. The fitted Lambert weights are
+// reflectances (the flash's scale divided out: the tiny capture's flash is
+// not the cue light's 1 W/sr), so at the frame's pixels they read the spot
+// texture's diffuse albedo; and the cow's own bounce light, which the basis
+// renders as if the cow were white, is dimmer in the fitted frames.
+TEST(RelightStageFitted, SecondaryMaterialIsTheFitsReflectanceAndDimsTheBounceLight) {
+  const fs::path dir = fs::temp_directory_path() / ("relit_relight_fitted_" + std::to_string(::getpid()));
+  testing::TestWorkspaceOptions o;
+  o.frames = 16;
+  o.proxy_offset_m = 0;
+  testing::MakeTestWorkspace(dir.string(), o);
+  CueStageOptions options;
+  options.samples_per_pixel = 8;
+  RunRecord record("test");
+  RunCueStage(dir.string(), options, record);
+  const CuesFile basis_file = ReadCuesFile((dir / "relight/cues/cues.json").string());
+  EXPECT_TRUE(basis_file.cue_weights.empty());
+  const Image basis = ReadCueFrame((dir / basis_file.frames[3].file).string());
+  options.secondary_material = "fitted";
+  RunRecord fitted_record("test");
+  testing::RunCuesAndSinglePartitionPlan(dir.string(), options, fitted_record);
+  const CuesFile cues = ReadCuesFile((dir / "relight/cues/cues.json").string());
+  ASSERT_EQ(cues.cue_weights, "relight/cues/proxy_cue_weights.exr");
+  EXPECT_FALSE(fs::exists(dir / "relight/cues/basis"));  // the first rendering is not kept
+  const Image weights = ReadCueWeights((dir / cues.cue_weights).string());
+  const Image fitted = ReadCueFrame((dir / cues.frames[3].file).string());
+
+  synth::SynthOptions synth_options = synth::SynthOptions::ForSize("tiny");
+  const synth::SynthScene scene = synth::BuildScene("spot", synth_options.board, synth::DefaultAssetsDir());
+  const render::Material* truth = nullptr;
+  for (const synth::SynthObject& object : scene.objects) {
+    if (object.foreground) truth = &object.material;
+  }
+  ASSERT_NE(truth, nullptr);
+  const render::Texture lambert =
+      render::Texture::FromImage(weights.SelectChannels(std::vector<int>{0, 1, 2}), false);
+  std::vector<double> ratio[3];
+  double basis_bounce = 0, fitted_bounce = 0;
+  for (int y = 0; y < fitted.height(); ++y) {
+    for (int x = 0; x < fitted.width(); ++x) {
+      if (fitted.at(x, y, 21) < 1) continue;
+      const render::Vec2f uv(fitted.at(x, y, 15), fitted.at(x, y, 16));
+      const render::Rgb w = lambert.Eval(uv), albedo = truth->diffuse_albedo.Eval(uv);
+      for (int c = 0; c < 3; ++c) {
+        if (albedo[c] > 0.05f) ratio[c].push_back(w[c] / albedo[c]);
+        basis_bounce += basis.at(x, y, c);
+        fitted_bounce += fitted.at(x, y, c);
+      }
+    }
+  }
+  ASSERT_GT(ratio[0].size(), 300u);
+  for (int c = 0; c < 3; ++c) {
+    const double median = Median(ratio[c]);
+    std::printf("channel %d: fitted Lambert / true diffuse albedo, median %.3f over %zu pixels\n", c, median,
+                ratio[c].size());
+    EXPECT_NEAR(median, 1.0, 0.1) << c;  // measured 0.96-0.98
+  }
+  std::printf("Lambert cue sum: basis %.2f, fitted %.2f\n", basis_bounce, fitted_bounce);
+  EXPECT_LT(fitted_bounce, 0.995 * basis_bounce);
+
+  // The exported asset carries the weights: its cue scene renders frame 3's
+  // cues again (the stage's seed for it) as the stage did.
+  RunTrainStage(dir.string(), 0, SmallModel(), SmallTraining(2), false, fitted_record);
+  ExportAsset(dir.string(), (dir / "asset").string(), fitted_record);
+  const AssetDescription asset = ReadAsset((dir / "asset").string());
+  ASSERT_EQ(asset.cue_weights, (dir / "asset" / "proxy_cue_weights.exr").string());
+  const auto asset_scene = LoadProxyScene(asset.mesh, asset.support_plane, asset.normal_map, asset.cue_weights);
+  CueRenderSettings settings;
+  settings.samples_per_pixel = options.samples_per_pixel;
+  settings.max_depth = options.max_depth;
+  settings.denoise = options.denoise;
+  settings.seed = options.seed * 1000003ull + 3;
+  const Image again = RenderCueFrame(*asset_scene, Camera(cues.camera, cues.frames[3].cam_from_world),
+                                     CueLight::Point(cues.frames[3].light_position_m, options.flash_intensity),
+                                     settings);
+  double again_bounce = 0;
+  for (int y = 0; y < again.height(); ++y) {
+    for (int x = 0; x < again.width(); ++x) {
+      if (fitted.at(x, y, 21) < 1) continue;
+      for (int c = 0; c < 3; ++c) again_bounce += again.at(x, y, c);
+    }
+  }
+  EXPECT_NEAR(again_bounce, fitted_bounce, 1e-3 * fitted_bounce);
+  fs::remove_all(dir);
 }
 
 TEST(RelightStageErrors, MissingUpstreamOutputsNameTheStageToRun) {

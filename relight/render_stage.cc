@@ -34,7 +34,7 @@ RelitRenderer::RelitRenderer(const AssetDescription& asset, const std::string& d
   RELIT_REQUIRE(static_cast<int>(asset_.partition_models.size()) == layout_.partition_count(),
                 "asset: ", asset_.partition_models.size(), " partitions listed, the layout has ",
                 layout_.partition_count());
-  scene_ = LoadProxyScene(asset_.mesh, asset_.support_plane, asset_.normal_map);
+  scene_ = LoadProxyScene(asset_.mesh, asset_.support_plane, asset_.normal_map, asset_.cue_weights);
   models_.resize(asset_.partition_models.size());
   int loaded = 0;
   for (size_t p = 0; p < asset_.partition_models.size(); ++p) {

@@ -34,7 +34,18 @@ RELIT_OPTION_FIELDS(CueStageOptions,
          "the object, e.g. a coaster, then shows in the cues); false = the print as printed")
     .Add("board_albedo_texel_m", &S::board_albedo_texel_m, 0.0002, 0.01,
          "texel of the board's albedo map, metres")
+    .Add("secondary_material", &S::secondary_material, {"basis", "fitted"},
+         "what the proxy wears past the primary hit: basis = each cue's own basis material (DNL); fitted = the "
+         "mixture a cue fit of a first rendering of the frames gives, so the cues hold the inter-reflections "
+         "between parts of different materials (\"Fitted secondary material\"); fitted needs support_plane "
+         "and the default bases")
+    .Add("secondary_fit_resolution_px", &S::secondary_fit_resolution_px, 16, 4096,
+         "texel grid of secondary_material fitted's cue fit")
     .OnToJson([](const S& s, nlohmann::json* json) {
+      if (s.secondary_material == "basis") {  // records of older relit stay equal
+        json->erase("secondary_material");
+        json->erase("secondary_fit_resolution_px");
+      }
       if (s.Format().is_default()) {
         json->erase("input");
         json->erase("bases");
@@ -60,6 +71,9 @@ void CueStageOptions::Check() const {
                 "table_albedo must be [] (measured on the frames) or 3 linear RGB values in [0, 1]");
   RELIT_REQUIRE(!support_plane || !Format().is_sh(),
                 "support_plane needs input: radiance (set support_plane: false for input: sh)");
+  RELIT_REQUIRE(secondary_material == "basis" || (support_plane && Format().is_default()),
+                "secondary_material: fitted needs support_plane: true and the default radiance bases (the fit "
+                "is of the 5 default cues; the paper gives the flash's scale)");
 }
 
 RELIT_OPTION_FIELDS(DatasetOptions,

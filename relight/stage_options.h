@@ -50,6 +50,17 @@ struct CueStageOptions {
   // cues' reflections and bounce light. false = the print as printed.
   bool board_albedo_map = true;
   double board_albedo_texel_m = 0.001;
+  // What the proxy wears past the primary hit. "basis": each cue's own basis
+  // material (DNL), so a part of the object mirrors the others as if they
+  // were white. "fitted": the frames are rendered once so, a cue fit
+  // (cue_texture_fit.h) of them gives every texel's weights, and the frames
+  // are rendered again with the proxy wearing that mixture past the primary
+  // hit: the cues then hold the inter-reflections between parts of
+  // different materials. Needs the support plane (its paper gives the
+  // flash's scale, which turns weights into reflectances) and the default
+  // radiance bases.
+  std::string secondary_material = "basis";
+  int secondary_fit_resolution_px = 256;  // texel grid of that fit
 
   CueFormat Format() const { return {input, bases}; }
   // The JSON (OptionsToJson) holds `input` and `bases` only when not the

@@ -143,7 +143,7 @@ SupportAlbedoEstimate EstimateSupportAlbedo(const render::Scene& scene, const Su
   tbb::parallel_for(size_t{0}, count, [&](size_t k) {
     measured[k] = MeasureFrame(scene, plane, frames[k * frames.size() / count], options, map_width, map_height);
   });
-  std::vector<double> albedo[3];
+  std::vector<double> albedo[3], scales[3];
   std::vector<std::vector<BoardSample>> per_texel(static_cast<size_t>(map_width) * map_height);
   for (FrameSamples& s : measured) {
     const int64_t paper = static_cast<int64_t>(s.paper[0].size());
@@ -153,6 +153,7 @@ SupportAlbedoEstimate EstimateSupportAlbedo(const render::Scene& scene, const Su
     for (int c = 0; c < 3; ++c) scale[c] = Median(std::move(s.paper[c])) / plane.paper_albedo;
     if (!(scale[0] > 0 && scale[1] > 0 && scale[2] > 0)) continue;
     ++estimate.frames_used;
+    for (int c = 0; c < 3; ++c) scales[c].push_back(scale[c]);
     estimate.paper_pixels += paper;
     estimate.table_pixels += static_cast<int64_t>(s.table[0].size());
     estimate.board_pixels += static_cast<int64_t>(s.board.size());
@@ -163,6 +164,9 @@ SupportAlbedoEstimate EstimateSupportAlbedo(const render::Scene& scene, const Su
       for (int c = 0; c < 3; ++c) b.value[c] = static_cast<float>(b.value[c] / scale[c]);
       per_texel[b.texel].push_back(b);
     }
+  }
+  if (estimate.frames_used > 0) {
+    for (int c = 0; c < 3; ++c) estimate.flash_scale[c] = Median(std::move(scales[c]));
   }
   if (map_width > 0 && estimate.frames_used > 0) {
     estimate.board_albedo = BoardAlbedoMap(quad.print_albedo, map_width, map_height, std::move(per_texel), options,

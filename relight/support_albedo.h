@@ -51,6 +51,10 @@ struct SupportAlbedoEstimate {
   bool found = false;
   Eigen::Vector3d table_albedo = Eigen::Vector3d::Zero();  // linear RGB in [0, 1]
   int frames_used = 0;
+  // The median over the frames used of each frame's flash scale per channel:
+  // a linear image value per unit of the cue light on albedo 1 (zero
+  // without a frame), which turns fitted cue weights into reflectances.
+  Eigen::Vector3d flash_scale = Eigen::Vector3d::Zero();
   int64_t paper_pixels = 0, table_pixels = 0, board_pixels = 0;
   std::string reason;  // why there is no estimate (found == false)
   // The board quad's albedo (linear RGB, rows from the print's top, as

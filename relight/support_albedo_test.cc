@@ -103,6 +103,8 @@ TEST_F(SupportAlbedoTest, MeasuresTheTableAgainstThePaperWhateverTheFlashStrengt
   EXPECT_EQ(estimate.frames_used, 6);
   EXPECT_GT(estimate.table_pixels, 1000);
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(estimate.table_albedo[c], truth[c], 0.03 * truth[c]) << c;
+  // The frames' flash scales are 0.02 x (1 + 0.2 i), i = 0..5: the median (upper middle) is i = 3's.
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(estimate.flash_scale[c], 0.032, 0.002) << c;
 }
 
 TEST_F(SupportAlbedoTest, MapsWhatCoversThePrint) {

@@ -91,9 +91,18 @@ void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec
     if (wo.z() <= 0) return;
 
     // The BSDF each cue sees here: its basis material on the proxy; on a
-    // context object, the object's own material, the same for every cue.
+    // context object, the object's own material, the same for every cue;
+    // past the primary hit on a proxy with fitted cue weights, their
+    // mixture of the basis materials, the same for every cue.
     BsdfParams own;
     if (context) own = scene.material(hit.material).At(hit.uv);
+    const std::vector<Texture>& fitted = scene.material(hit.material).cue_weights;
+    const bool mixture = !context && bounce > 0 && !fitted.empty();
+    Rgb weight[kMaxBasis];
+    if (mixture) {
+      RELIT_CHECK(static_cast<int>(fitted.size()) == k_count);
+      for (int k = 0; k < k_count; ++k) weight[k] = fitted[k].Eval(hit.uv).max(0.0f);
+    }
     auto sampling_pdf = [&](const Vec3f& wi) {
       return context ? PdfBsdf(own, wo, wi) : MixturePdf(basis, wo, wi);
     };
@@ -102,6 +111,10 @@ void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec
       if (context) {
         const Rgb f_own = EvalBsdf(own, wo, wi);
         for (int k = 0; k < k_count; ++k) f[k] = f_own;
+      } else if (mixture) {
+        Rgb f_mix = Rgb::Zero();
+        for (int k = 0; k < k_count; ++k) f_mix += weight[k] * EvalBsdf(basis[k].bsdf, wo, wi);
+        for (int k = 0; k < k_count; ++k) f[k] = f_mix;
       } else {
         for (int k = 0; k < k_count; ++k) f[k] = EvalBsdf(basis[k].bsdf, wo, wi);
       }

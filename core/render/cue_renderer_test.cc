@@ -197,6 +197,83 @@ TEST(CueRenderer, ContextObjectKeepsItsMaterialAndIsBackground) {
   EXPECT_GT(cue_sum, 1.05 * bare_sum);
 }
 
+// A proxy with fitted cue weights wears their mixture past the primary hit,
+// so the weighted sum of its cues is the image of the object made of those
+// materials, inter-reflections included: a copper-like glossy sphere
+// (ggx_0.13 weight c) on a red Lambert plane (weight a), both proxy, against
+// the path tracer's image of that scene. With the basis itself past the
+// primary hit the sphere would mirror a white plane: the same sum is then
+// too bright in green and blue.
+TEST(CueRenderer, FittedCueWeightsGiveTheirMaterialsInterReflections) {
+  const Rgb c(0.9f, 0.6f, 0.5f), a(0.8f, 0.1f, 0.1f);
+  const int kGlossy = 3;  // ggx_0.13
+  auto weights = [](int basis, const Rgb& value) {
+    std::vector<Texture> w(5, Texture(Rgb::Zero()));
+    w[basis] = value;
+    return w;
+  };
+  auto build = [&](bool fitted, bool reference, Scene* scene) {
+    Material sphere, plane;
+    if (reference) {
+      sphere = Material::Glossy(Rgb::Zero(), c, 0.13f);
+      sphere.f0 = Rgb::Ones();
+      plane = Material::Lambert(a);
+    } else if (fitted) {
+      sphere.cue_weights = weights(kGlossy, c);
+      plane.cue_weights = weights(0, a);
+    }
+    scene->AddObject(MakeSphere(Vec3f(0, 0, 0.2f), 0.2f, 48, 24), sphere, 1);
+    scene->AddObject(MakeQuad(Vec3f::Zero(), Vec3f::UnitX(), Vec3f::UnitY(), 1.2f, 1.2f), plane, 1);
+    scene->AddLight(PointLight{Vec3f(0.3f, -0.4f, 0.8f), Rgb::Constant(1.0f)});
+    scene->Commit();
+  };
+  RenderOptions options;
+  options.samples_per_pixel = 64;
+  options.max_depth = 4;
+  const Camera camera = LookingAt({0.5, -0.8, 0.35}, 24);
+  Scene fitted_scene, basis_scene, reference_scene;
+  build(true, false, &fitted_scene);
+  build(false, false, &basis_scene);
+  build(false, true, &reference_scene);
+  const RenderResult fitted = RenderCues(fitted_scene, camera, options);
+  const RenderResult basis = RenderCues(basis_scene, camera, options);
+  RenderOptions reference_options = options;
+  reference_options.seed = 99;
+  const RenderResult reference = RenderImage(reference_scene, camera, reference_options);
+  // Per channel, over sphere pixels (which see the plane) and plane pixels.
+  Rgb fitted_sphere = Rgb::Zero(), basis_sphere = Rgb::Zero(), ref_sphere = Rgb::Zero();
+  Rgb fitted_plane = Rgb::Zero(), ref_plane = Rgb::Zero();
+  int sphere_pixels = 0, plane_pixels = 0;
+  for (int y = 0; y < 24; ++y) {
+    for (int x = 0; x < 24; ++x) {
+      if (reference.alpha.at(x, y, 0) != 1.0f) continue;
+      const bool on_sphere = reference.position.at(x, y, 2) > 0.005f;
+      for (int ch = 0; ch < 3; ++ch) {
+        const float ref = reference.radiance.at(x, y, ch);
+        if (on_sphere) {
+          fitted_sphere[ch] += c[ch] * fitted.radiance.at(x, y, 3 * kGlossy + ch);
+          basis_sphere[ch] += c[ch] * basis.radiance.at(x, y, 3 * kGlossy + ch);
+          ref_sphere[ch] += ref;
+        } else {
+          fitted_plane[ch] += a[ch] * fitted.radiance.at(x, y, ch);
+          ref_plane[ch] += ref;
+        }
+      }
+      ++(on_sphere ? sphere_pixels : plane_pixels);
+    }
+  }
+  ASSERT_GT(sphere_pixels, 60);
+  ASSERT_GT(plane_pixels, 60);
+  for (int ch = 0; ch < 3; ++ch) {
+    std::printf("channel %d: sphere fitted %.3f basis %.3f reference %.3f; plane fitted %.3f reference %.3f\n", ch,
+                fitted_sphere[ch], basis_sphere[ch], ref_sphere[ch], fitted_plane[ch], ref_plane[ch]);
+    EXPECT_NEAR(fitted_sphere[ch], ref_sphere[ch], 0.04 * ref_sphere[ch]) << ch;
+    EXPECT_NEAR(fitted_plane[ch], ref_plane[ch], 0.03 * ref_plane[ch]) << ch;
+  }
+  // The basis past the primary hit mirrors a white plane: blue far too bright.
+  EXPECT_GT(basis_sphere[2], 1.3 * ref_sphere[2]);
+}
+
 // The delta light's direct light kept apart: the two halves sum to the
 // plain cues, the apart half is the part without path-tracing noise (the
 // same in two renders with different seeds, up to the pixel footprint),

@@ -29,6 +29,13 @@ struct Material {
   // interpolated vertex normals. Texels outside the UV charts must hold a
   // continuation of the charts (bilinear reads at chart borders).
   Texture normal_map = Rgb::Zero();
+  // Radiance cues only (cue_renderer.h): the object's fitted cue weights, one
+  // RGB texture per basis material. When set, the object wears at every path
+  // vertex after the primary hit the mixture sum_k w_k f_k of the basis
+  // materials (the same in every cue) instead of each cue's own basis, so
+  // the cues hold inter-reflections between parts of different materials
+  // (a copper sphere mirroring an orange one). Empty = the basis itself.
+  std::vector<Texture> cue_weights;
 
   static Material Lambert(const Rgb& albedo);
   static Material Glossy(const Rgb& diffuse, const Rgb& specular, float alpha);
