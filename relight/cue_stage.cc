@@ -182,10 +182,6 @@ Eigen::Vector3d MeasureSupportAlbedo(const fs::path& root, const fs::path& mesh_
 // kept from an interrupted run) on `scene`.
 void RenderFrames(render::Scene& scene, const CuesFile& cues, const CamerasFile& cameras,
                   const CueStageOptions& options, const fs::path& dir, const char* label, CueStageSummary* summary) {
-  CueRenderSettings settings;
-  settings.samples_per_pixel = options.samples_per_pixel;
-  settings.max_depth = options.max_depth;
-  settings.denoise = options.denoise;
   Progress progress(label, static_cast<int64_t>(cues.frames.size()));
   for (size_t i = 0; i < cues.frames.size(); ++i) {
     const CueFrameRecord& r = cues.frames[i];
@@ -193,11 +189,9 @@ void RenderFrames(render::Scene& scene, const CuesFile& cues, const CamerasFile&
     if (fs::exists(file)) {
       ++summary->frames_reused;
     } else {
-      // A per-frame seed keeps each frame's noise independent and reproducible.
-      settings.seed = options.seed * 1000003ull + i;
       const Camera camera(cameras.undistorted_view, r.cam_from_world);
       const Image frame = RenderCueFrame(scene, camera, CueLight::Point(r.light_position_m, options.flash_intensity),
-                                         settings, cues.format);
+                                         CueFrameRenderSettings(options, i), cues.format);
       WriteImage(file.string(), frame);  // atomic per file
       ++summary->frames_rendered;
     }
@@ -259,6 +253,15 @@ void FitProxyCueWeights(const fs::path& root, const CuesFile& cues, const Camera
 }
 
 }  // namespace
+
+CueRenderSettings CueFrameRenderSettings(const CueStageOptions& options, size_t index) {
+  CueRenderSettings settings;
+  settings.samples_per_pixel = options.samples_per_pixel;
+  settings.max_depth = options.max_depth;
+  settings.denoise = options.denoise;
+  settings.seed = options.seed * 1000003ull + index;
+  return settings;
+}
 
 CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions& options,
                             RunRecord& record) {
@@ -355,9 +358,10 @@ CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions&
     fitted = false;
   }
   record.Set("secondary_material", fitted ? "fitted" : "basis");
+  const fs::path weights_path = partial / "proxy_cue_weights.exr";
   if (fitted) {
     // The frames rendered with the basis first (kept in `first_dir` until the fit is written).
-    const fs::path first_dir = partial / "basis", weights_path = partial / "proxy_cue_weights.exr";
+    const fs::path first_dir = partial / "basis";
     if (!fs::exists(weights_path)) {
       fs::create_directories(first_dir);
       auto scene = LoadProxyScene(mesh_path.string(), cues.support_plane, NormalMapPath(root, cues));
@@ -368,10 +372,10 @@ CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions&
       FitProxyCueWeights(root, cues, cameras, proxy, options, first_dir, flash_scale, weights_path, record);
     }
     fs::remove_all(first_dir);
-    cues.cue_weights = "relight/cues/proxy_cue_weights.exr";
+    cues.cue_weights = "relight/cues/" + weights_path.filename().string();  // partial/ becomes cues/
   }
   auto scene = LoadProxyScene(mesh_path.string(), cues.support_plane, NormalMapPath(root, cues),
-                              fitted ? (partial / "proxy_cue_weights.exr").string() : "");
+                              fitted ? weights_path.string() : "");
   {
     auto timer = record.Time("render_cues");
     RenderFrames(*scene, cues, cameras, options, partial, "cues", &summary);

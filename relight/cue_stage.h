@@ -69,6 +69,11 @@ struct CueStageSummary {
 CueStageSummary RunCueStage(const std::string& workspace, const CueStageOptions& options,
                             RunRecord& record);
 
+// How the stage renders the `index`-th frame of cues.json: the options'
+// samples, bounces and denoising, a seed of its own derived from
+// options.seed (each frame's noise independent and reproducible).
+CueRenderSettings CueFrameRenderSettings(const CueStageOptions& options, size_t index);
+
 // 64-bit FNV-1a of a file's bytes (inputs fingerprint for resuming).
 uint64_t HashFile(const std::string& path);
 // The same hash of a string's bytes.

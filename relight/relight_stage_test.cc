@@ -522,14 +522,9 @@ TEST(RelightStageFitted, SecondaryMaterialIsTheFitsReflectanceAndDimsTheBounceLi
   const AssetDescription asset = ReadAsset((dir / "asset").string());
   ASSERT_EQ(asset.cue_weights, (dir / "asset" / "proxy_cue_weights.exr").string());
   const auto asset_scene = LoadProxyScene(asset.mesh, asset.support_plane, asset.normal_map, asset.cue_weights);
-  CueRenderSettings settings;
-  settings.samples_per_pixel = options.samples_per_pixel;
-  settings.max_depth = options.max_depth;
-  settings.denoise = options.denoise;
-  settings.seed = options.seed * 1000003ull + 3;
   const Image again = RenderCueFrame(*asset_scene, Camera(cues.camera, cues.frames[3].cam_from_world),
                                      CueLight::Point(cues.frames[3].light_position_m, options.flash_intensity),
-                                     settings);
+                                     CueFrameRenderSettings(options, 3));
   double again_bounce = 0;
   for (int y = 0; y < again.height(); ++y) {
     for (int x = 0; x < again.width(); ++x) {

@@ -94,9 +94,10 @@ void TraceCues(const Scene& scene, const std::vector<CueBasis>& basis, const Vec
     // context object, the object's own material, the same for every cue;
     // past the primary hit on a proxy with fitted cue weights, their
     // mixture of the basis materials, the same for every cue.
+    const Material& material = scene.material(hit.material);
     BsdfParams own;
-    if (context) own = scene.material(hit.material).At(hit.uv);
-    const std::vector<Texture>& fitted = scene.material(hit.material).cue_weights;
+    if (context) own = material.At(hit.uv);
+    const std::vector<Texture>& fitted = material.cue_weights;
     const bool mixture = !context && bounce > 0 && !fitted.empty();
     Rgb weight[kMaxBasis];
     if (mixture) {
