@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/quality/qualityssim.hpp>
 #include <spdlog/fmt/fmt.h>
+#include <spdlog/spdlog.h>
 
 #include "core/atomic_output.h"
 #include "core/color.h"
@@ -76,6 +77,30 @@ std::string Cell(const Pooled& p) {
   return fmt::format("{:.2f} / {:.4f} / {:.3f}", p.metrics.psnr_db, p.metrics.mae, p.ssim);
 }
 
+// A score this close to the truth's noise floor measures the truth's noise
+// as much as the method (issue 24: claimed scores stay >= 6 dB below it).
+constexpr double kMinFloorMarginDb = 6.0;
+
+// The floor's PSNR minus the score's, NaN without a floor.
+double FloorMarginDb(const Pooled& score, const Pooled& floor) {
+  if (score.images == 0 || floor.images == 0) return std::numeric_limits<double>::quiet_NaN();
+  return floor.metrics.psnr_db - score.metrics.psnr_db;
+}
+
+// The cell, marked "*" when it lies within kMinFloorMarginDb of its floor.
+std::string CellAgainstFloor(const Pooled& p, const Pooled& floor) {
+  const double margin = FloorMarginDb(p, floor);
+  return Cell(p) + (std::isfinite(margin) && margin < kMinFloorMarginDb ? " *" : "");
+}
+
+// eval.json rows: "truth_floor_margin_db" when the truth has a floor.
+void AddFloorMargin(const Pooled& p, const Pooled& floor, json* row, int* close_to_floor) {
+  const double margin = FloorMarginDb(p, floor);
+  if (!std::isfinite(margin)) return;
+  (*row)["truth_floor_margin_db"] = margin;
+  *close_to_floor += margin < kMinFloorMarginDb;
+}
+
 // "| method | type... | all | alpha MAE |" rows, then the truth's noise floor.
 void AppendMethodTable(std::string* out, const std::vector<EvalImageResult>& results,
                        const std::vector<EvalImageResult>& floors, const std::vector<std::string>& methods,
@@ -88,9 +113,12 @@ void AppendMethodTable(std::string* out, const std::vector<EvalImageResult>& res
   md += "\n";
   for (const std::string& method : methods) {
     md += "| " + method + " |";
-    for (const std::string& t : types) md += " " + Cell(Pool(results, method, t)) + " |";
+    for (const std::string& t : types) {
+      md += " " + CellAgainstFloor(Pool(results, method, t), Pool(floors, kTruthNoiseFloor, t)) + " |";
+    }
     const Pooled all = Pool(results, method, "all");
-    md += " " + Cell(all) + " | " + fmt::format("{:.4f}", all.metrics.alpha_mae) + " |\n";
+    md += " " + CellAgainstFloor(all, Pool(floors, kTruthNoiseFloor, "all")) + " | " +
+          fmt::format("{:.4f}", all.metrics.alpha_mae) + " |\n";
   }
   if (!floors.empty()) {
     md += "| truth noise floor |";
@@ -239,6 +267,7 @@ void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResu
                      const std::vector<EvalImageResult>& floors) {
   const std::vector<std::string> types = LightTypes(results);
   json summary = json::array();
+  int close_to_floor = 0;  // pooled scores within kMinFloorMarginDb of their floor
   for (const std::string& method : methods) {
     std::vector<std::string> columns = types;
     columns.push_back("all");
@@ -246,6 +275,7 @@ void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResu
       const Pooled p = Pool(results, method, type);
       json row = {{"method", method}, {"light_type", type}, {"images", p.images}};
       row.update(MetricsJson(p.metrics, p.ssim));
+      AddFloorMargin(p, Pool(floors, kTruthNoiseFloor, type), &row, &close_to_floor);
       summary.push_back(row);
     }
   }
@@ -289,6 +319,7 @@ void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResu
         const Pooled p = Pool(in_set, method, type);
         json row = {{"view_set", set}, {"method", method}, {"light_type", type}, {"images", p.images}};
         row.update(MetricsJson(p.metrics, p.ssim));
+        AddFloorMargin(p, Pool(floors_in_set, kTruthNoiseFloor, type), &row, &close_to_floor);
         by_set.push_back(row);
       }
     }
@@ -301,6 +332,10 @@ void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResu
     }
   }
   header["summary_by_view_set"] = by_set;
+  if (header.contains("truth_noise_floor")) {
+    header["truth_noise_floor"]["min_margin_db"] = kMinFloorMarginDb;
+    header["truth_noise_floor"]["scores_within_min_margin"] = close_to_floor;
+  }
   header["light_types"] = types;
   header["metrics"] =
       "linear radiance on the GT foreground (alpha >= 0.5), both clipped per RGB channel to [0, clip_radiance] (the "
@@ -342,6 +377,15 @@ void WriteEvalReport(const std::string& out_dir, const std::vector<EvalImageResu
                          "this truth (each eval image against one of the two independent halves it is the mean of, or "
                          "against a twin render, MSE halved). Scores within ~6 dB of it are limited by the truth's "
                          "noise, not by the method.\n";
+  if (close_to_floor > 0) {
+    md += fmt::format("\n\\* within {:g} dB of the truth's noise floor ({} pooled scores): such a score measures the "
+                      "truth's noise as much as the method. Render the eval set with more samples per pixel "
+                      "(relit-synth eval_samples_per_pixel, eval_environment_samples_per_pixel) before quoting it.\n",
+                      kMinFloorMarginDb, close_to_floor);
+    spdlog::warn("eval: {} pooled scores lie within {:g} dB of the truth's noise floor (eval.md, marked *): render "
+                 "the eval set with more samples per pixel before quoting them",
+                 close_to_floor, kMinFloorMarginDb);
+  }
   md += "\n## Per image (PSNR dB / MAE / SSIM)\n\n| view | light |";
   for (const std::string& m : methods) md += " " + m + " |";
   md += "\n|---|---|";

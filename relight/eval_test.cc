@@ -74,7 +74,9 @@ class EvalTest : public ::testing::Test {
     std::printf("%d training steps: %.1f s\n", kSteps, SecondsSince(start));
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
-  double NoiseFloorWithOffsetRenders(const std::string& key, const std::string& suffix);
+  // *eval_out: the eval.json read back.
+  double NoiseFloorWithOffsetRenders(const std::string& key, const std::string& suffix, float offset = 0.02f,
+                                     nlohmann::json* eval_out = nullptr, std::string* md_out = nullptr);
   static constexpr int kSteps = 200;
   static std::string dir_, truth_;
 };
@@ -201,9 +203,10 @@ TEST_F(EvalTest, ClipRadianceClipsRenderAndTruth) {
 
 // The truth's noise floor from a second render of every image, listed in
 // truth.json under `key` with file suffix `suffix`: each = truth + 0.02
-// everywhere (no clip), so it differs by 0.02 x alpha on the foreground.
-// Returns eval's floor "all" in dB.
-double EvalTest::NoiseFloorWithOffsetRenders(const std::string& key, const std::string& suffix) {
+// everywhere (no clip; or + `offset`), so it differs by 0.02 x alpha on the
+// foreground. Returns eval's floor "all" in dB.
+double EvalTest::NoiseFloorWithOffsetRenders(const std::string& key, const std::string& suffix, float offset,
+                                             json* eval_out, std::string* md_out) {
   const std::string capture = dir_ + "/capture_" + key;
   fs::remove_all(capture);
   fs::copy(fs::path(truth_).parent_path(), capture, fs::copy_options::recursive);
@@ -214,7 +217,7 @@ double EvalTest::NoiseFloorWithOffsetRenders(const std::string& key, const std::
     json listed = json::object();
     for (const auto& [light, path] : view["images"].items()) {
       Image image = ReadImage(capture + "/" + path.get<std::string>());
-      for (float& v : image.data()) v += 0.02f;
+      for (float& v : image.data()) v += offset;
       const std::string second = path.get<std::string>() + suffix;
       WriteImage(capture + "/" + second, image, PixelStorage::kFloat);
       listed[light] = second;
@@ -236,6 +239,8 @@ double EvalTest::NoiseFloorWithOffsetRenders(const std::string& key, const std::
   std::ifstream md(out + "/eval.md");
   const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("| truth noise floor |"), std::string::npos);
+  if (eval_out != nullptr) *eval_out = eval;
+  if (md_out != nullptr) *md_out = text;
   return eval["truth_noise_floor"]["per_light_type"]["all"]["psnr_db"].get<double>();
 }
 
@@ -246,6 +251,27 @@ TEST_F(EvalTest, TruthNoiseFloorFromTwinRenders) {
   std::printf("truth noise floor with a +0.02 twin: %.2f dB\n", floor_db);
   EXPECT_GT(floor_db, 36.5);
   EXPECT_LT(floor_db, 39.0);
+}
+
+// Every pooled score carries its margin to the floor; a score within 6 dB of
+// it is marked in eval.md and counted, a far one is not.
+TEST_F(EvalTest, MarksScoresWithinSixDbOfTheTruthsNoiseFloor) {
+  json far, near;
+  std::string far_md, near_md;
+  const double far_floor = NoiseFloorWithOffsetRenders("images_twin", ".twin.exr", 0.02f, &far, &far_md);
+  const double near_floor = NoiseFloorWithOffsetRenders("images_twin", ".twin.exr", 0.3f, &near, &near_md);
+  const json far_row = Row(far, "cues_only", "all"), near_row = Row(near, "cues_only", "all");
+  const double score = far_row["psnr_db"].get<double>();
+  std::printf("cues_only %.2f dB; floors %.2f and %.2f dB\n", score, far_floor, near_floor);
+  ASSERT_GT(far_floor - score, 6.0);   // the test's premise
+  ASSERT_LT(near_floor - score, 6.0);
+  EXPECT_NEAR(far_row["truth_floor_margin_db"].get<double>(), far_floor - score, 1e-9);
+  EXPECT_NEAR(near_row["truth_floor_margin_db"].get<double>(), near_floor - score, 1e-9);
+  EXPECT_EQ(far["truth_noise_floor"]["scores_within_min_margin"].get<int>(), 0);
+  EXPECT_GT(near["truth_noise_floor"]["scores_within_min_margin"].get<int>(), 0);
+  EXPECT_EQ(far_md.find(" * |"), std::string::npos);
+  EXPECT_NE(near_md.find(" * |"), std::string::npos);
+  EXPECT_NE(near_md.find("within 6 dB of the truth's noise floor"), std::string::npos);
 }
 
 // A half (the image is its mean with another half): the half's difference to

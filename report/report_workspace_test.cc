@@ -240,15 +240,19 @@ class ReportWorkspaceTest : public ::testing::Test {
     }
     for (const std::string method : {"model", "cues_only"}) {
       for (const std::string type : {"point", "all"}) {
+        // The floor is 32: the model 5.2 dB below it (marked), cues-only 7.8.
         summary.push_back({{"method", method}, {"light_type", type}, {"images", 2},
                            {"psnr_db", method == "model" ? 26.8 : 24.2}, {"mae", 0.02}, {"ssim", 0.9},
-                           {"alpha_mae", 0.01}});
+                           {"alpha_mae", 0.01}, {"truth_floor_margin_db", method == "model" ? 5.2 : 7.8}});
       }
     }
     WriteJsonFile((ws / "relight" / "eval" / "eval.json").string(), "eval", 1,
                   {{"methods", {"model", "cues_only"}}, {"light_types", {"point"}}, {"views", 2}, {"lights", 1},
                    {"light_unit", {{"factor", 1.43}, {"exposure", 1.0}}}, {"options", {{"error_map_scale", 5}}},
-                   {"summary", summary}, {"images", images}});
+                   {"summary", summary}, {"images", images},
+                   {"truth_noise_floor",
+                    {{"per_light_type", {{"point", {{"psnr_db", 32.0}, {"mae", 0.004}}}, {"all", {{"psnr_db", 32.0}, {"mae", 0.004}}}}},
+                     {"scores_within_min_margin", 2}}}});
     WriteText(ws / "relight" / "eval" / "eval.md", "| method | point |\n| model | 26.80 / 0.0200 / 0.900 |\n");
   }
 
@@ -281,7 +285,8 @@ TEST_F(ReportWorkspaceTest, FullWorkspaceLoadsInChromiumWithoutErrors) {
   EXPECT_EQ(kinds, (std::set<std::string>{".png", ".svg"}));
   for (const std::string part : {"coverage_hemisphere.svg", "proxy_preview_0.png", "atlas_preview.png",
                                  "_trimap.png", "_matte.png", "training_psnr_all.svg", "turntable_env_",
-                                 "capture_frames.svg", "trajectories_top.svg", "eval_01", "26.80 / 0.0200 / 0.900",
+                                 "capture_frames.svg", "trajectories_top.svg", "eval_01", "26.80 / 0.0200 / 0.900 *",
+                                 "24.20 / 0.0200 / 0.900<", "truth noise floor", "32.00 / 0.0040",
                                  "eval_eval_00_point_00_gt.png", "eval_eval_00_point_00_cues_only_error.png",
                                  "Geometry pass: ", "geometry pass (phone V)"}) {
     EXPECT_NE(html.find(part), std::string::npos) << part;

@@ -319,10 +319,23 @@ std::string EvalTables(ReportContext& context, const fs::path& dir, const json& 
       if (row.value("method", "") != method) continue;
       const auto it = std::find(types.begin(), types.end(), row.value("light_type", ""));
       if (it == types.end()) continue;
-      cells[1 + (it - types.begin())] =
-          number(row, "psnr_db", 2) + " / " + number(row, "mae", 4) + " / " + number(row, "ssim", 3);
+      // eval marks a score within 6 dB of the truth's noise floor.
+      const bool near_floor = row.contains("truth_floor_margin_db") && row["truth_floor_margin_db"].is_number() &&
+                              row["truth_floor_margin_db"].get<double>() < 6.0;
+      cells[1 + (it - types.begin())] = number(row, "psnr_db", 2) + " / " + number(row, "mae", 4) + " / " +
+                                        number(row, "ssim", 3) + (near_floor ? " *" : "");
       if (*it == "all") cells.back() = number(row, "alpha_mae", 4);
     }
+    rows.push_back(cells);
+  }
+  const json floor = eval.value("truth_noise_floor", json::object()).value("per_light_type", json::object());
+  if (!floor.empty()) {
+    std::vector<std::string> cells(types.size() + 2, "–");
+    cells[0] = "truth noise floor";
+    for (size_t i = 0; i < types.size(); ++i) {
+      if (floor.contains(types[i])) cells[1 + i] = number(floor[types[i]], "psnr_db", 2) + " / " + number(floor[types[i]], "mae", 4);
+    }
+    cells.back() = "";
     rows.push_back(cells);
   }
   const double clip = eval.value("clip_radiance", 0.0);
@@ -332,6 +345,14 @@ std::string EvalTables(ReportContext& context, const fs::path& dir, const json& 
                     (clip > 0 ? "render and truth clipped at " + Fixed(clip, 3) + " (the capture's white level)"
                               : std::string("not clipped")) + ".");
   html += Table(header, rows);
+  if (!floor.empty()) {
+    const int near = eval["truth_noise_floor"].value("scores_within_min_margin", 0);
+    html += Paragraph("Truth noise floor: the score a perfect prediction of the converged image gets against this "
+                      "truth; scores within 6 dB of it measure the truth's noise as much as the method" +
+                      (near > 0 ? std::string(" (marked *: render the eval set with more samples per pixel before "
+                                              "quoting them).")
+                                : std::string(".")));
+  }
   if (eval.contains("light_unit")) {
     html += Paragraph("Light unit: ground-truth strengths x " + Fixed(eval["light_unit"].value("factor", 0.0), 4) +
                       " (cue flash / true flash); exposure " + Fixed(eval["light_unit"].value("exposure", 1.0), 3) + ".");
