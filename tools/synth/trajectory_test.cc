@@ -74,8 +74,12 @@ TEST(Trajectory, ElevationBandsFilmEveryAzimuthLowAndHigh) {
       EXPECT_GE(elevation, p.elevation_min_rad - 1e-9) << "seed " << seed << " t " << t;
       EXPECT_LE(elevation, p.elevation_max_rad + 1e-9) << "seed " << seed << " t " << t;
       // Away from the rise (a fifth of a band around t = 5 s): in its ring.
-      if (t < 4.5) EXPECT_LT(elevation, middle) << "seed " << seed << " t " << t;
-      if (t > 5.5) EXPECT_GT(elevation, middle) << "seed " << seed << " t " << t;
+      if (t < 4.5) {
+        EXPECT_LT(elevation, middle) << "seed " << seed << " t " << t;
+      }
+      if (t > 5.5) {
+        EXPECT_GT(elevation, middle) << "seed " << seed << " t " << t;
+      }
       EXPECT_LT(std::abs(path.ElevationRad(t + 1.0 / 30) - elevation), 0.04) << "seed " << seed << " t " << t;
     }
   }
