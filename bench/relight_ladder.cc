@@ -146,6 +146,12 @@ std::string TruthObjectMesh(const fs::path& synth_dir, const json& truth, const 
   return path.string();
 }
 
+YAML::Node TrueMeshReconstructOptions(const YAML::Node& reconstruct) {
+  YAML::Node options = reconstruct.IsMap() ? YAML::Clone(reconstruct) : YAML::Node(YAML::NodeType::Map);
+  options["normal_map"]["enabled"] = false;
+  return options;
+}
+
 render::TriangleMesh OffsetAlongNormals(const render::TriangleMesh& mesh, double offset_m) {
   // Welded first: an OBJ's UV seams repeat positions, and copies moved along
   // their own one-sided normals would open cracks.

@@ -17,6 +17,7 @@
 #include <string>
 
 #include <nlohmann/json.hpp>
+#include <yaml-cpp/yaml.h>
 
 #include "core/render/mesh.h"
 
@@ -69,6 +70,12 @@ render::TriangleMesh OffsetAlongNormals(const render::TriangleMesh& mesh, double
 // `work_dir`/truth_objects_offset.obj for rung (o).
 std::string OffsetTruthMesh(const std::filesystem::path& synth_dir, const nlohmann::json& truth,
                             double offset_m, const std::filesystem::path& work_dir);
+
+// The `reconstruct:` options for the rungs on the true mesh (a, b, o): the
+// pipeline's own with `normal_map.enabled: false`. The true mesh's normals
+// are true; reconstruct's photometric normal map is an estimate, and what it
+// costs or gains belongs to the stage's proxy (rung c).
+YAML::Node TrueMeshReconstructOptions(const YAML::Node& reconstruct);
 
 // What the ladder table shows of one rung's eval.json: PSNR per light type
 // and "all" (all views and interpolation views) of the model, cue fit and

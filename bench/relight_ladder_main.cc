@@ -9,8 +9,9 @@
 //
 //   relit-bench-relight-ladder --pipeline pipeline.yaml --workspace demo/workspace --out bench-out/ladder-demo
 //
-// The relight (and, for rungs a and b, reconstruct) options are the pipeline
-// file's own sections; its inputs.truth names the capture's truth.json.
+// The relight (and, for rungs a, b and o, reconstruct) options are the
+// pipeline file's own sections, but the true mesh gets no photometric normal
+// map (its normals are true); inputs.truth names the capture's truth.json.
 // Each rung is a workspace OUT/rung-X (capture and calib hard-linked from
 // the workspace, nothing in it written); a rerun skips finished steps, and
 // refuses a rung made from other inputs or options unless --force.
@@ -92,11 +93,13 @@ class Ladder {
     relight_config_ = out_ / "relight.yaml";
     reconstruct_config_ = out_ / "reconstruct.yaml";
     AtomicWriteFile(relight_config_, pipeline::YamlText(config_.relight));
-    AtomicWriteFile(reconstruct_config_, pipeline::YamlText(config_.reconstruct));
+    const YAML::Node true_mesh = TrueMeshReconstructOptions(config_.reconstruct);
+    AtomicWriteFile(reconstruct_config_, pipeline::YamlText(true_mesh));
     pipeline::HashCache hashes;
     fingerprint_ = pipeline::HashJson(
         {{"relight", pipeline::YamlToJson(config_.relight)},
          {"reconstruct", pipeline::YamlToJson(config_.reconstruct)},
+         {"true_mesh_reconstruct", pipeline::YamlToJson(true_mesh)},
          {"truth", hashes.HashFile(config_.truth)},
          {"cameras", hashes.HashFile(workspace_ / "calib" / "cameras.json")},
          {"lights", hashes.HashFile(workspace_ / "calib" / "lights.json")},

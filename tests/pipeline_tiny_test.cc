@@ -19,6 +19,7 @@
 #include "core/image.h"
 #include "core/json_file.h"
 #include "core/render/mesh.h"
+#include "core/shell.h"
 #include "core/workspace.h"
 #include "pipeline/runner.h"
 #include "tools/synth/synth.h"
@@ -257,6 +258,26 @@ TEST_F(PipelineTinyTest, LadderRungTakesCamerasFlashAndMattesFromTheTruth) {
   }
   ASSERT_GT(inside, 100);
   EXPECT_GE(covered, 0.99 * inside) << covered << " of " << inside << " projected vertices on the true matte";
+
+  // Reconstruct on the true mesh as the ladder runs it for rungs a, b and o:
+  // the pipeline's options (here with a normal map, which the workspace's
+  // proxy has) but no photometric normal map over the true normals.
+  ASSERT_FALSE(proxy.normal_map.empty()) << "the premise: the pipeline's reconstruct estimates a normal map";
+  const fs::path mesh_rung = *dir_ / "rung-a-mesh";
+  bench::LinkTree(ws / "capture", mesh_rung / "capture");
+  bench::LinkTree(ws / "calib", mesh_rung / "calib");
+  bench::WriteTruthCalib(ws, truth, mesh_rung);
+  const fs::path true_mesh_yaml = *dir_ / "reconstruct_true_mesh.yaml";
+  std::ofstream(true_mesh_yaml) << pipeline::YamlText(bench::TrueMeshReconstructOptions(
+      pipeline::PipelineConfig::Load(yaml.string()).reconstruct));
+  const CommandResult reconstructed = RunCommand(
+      ShellQuote(RELIT_RECONSTRUCT_EXE) + " --workspace " + ShellQuote(mesh_rung.string()) + " --config " +
+      ShellQuote(true_mesh_yaml.string()) + " --mesh " +
+      ShellQuote((*synth_ / truth["objects"][0]["mesh"].get<std::string>()).string()) + " --log-level warn");
+  ASSERT_TRUE(reconstructed.ok()) << reconstructed.ErrTail();
+  const ProxyFile true_mesh_proxy = ReadProxyFile((mesh_rung / "reconstruct" / "proxy.json").string());
+  EXPECT_TRUE(true_mesh_proxy.normal_map.empty()) << true_mesh_proxy.normal_map;
+  EXPECT_EQ(true_mesh_proxy.mattes.size(), proxy.mattes.size());
 
   // The source workspace is untouched (its files were hard-linked, the rung's replaced).
   EXPECT_EQ(ReadJsonFile((ws / "calib" / "cameras.json").string(), "cameras", 1).dump(), cameras_before);
