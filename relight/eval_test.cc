@@ -74,7 +74,7 @@ class EvalTest : public ::testing::Test {
     std::printf("%d training steps: %.1f s\n", kSteps, SecondsSince(start));
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
-  // *eval_out: the eval.json read back.
+  // *eval_out, *md_out: the eval.json and eval.md read back.
   double NoiseFloorWithOffsetRenders(const std::string& key, const std::string& suffix, float offset = 0.02f,
                                      nlohmann::json* eval_out = nullptr, std::string* md_out = nullptr);
   static constexpr int kSteps = 200;
@@ -202,9 +202,9 @@ TEST_F(EvalTest, ClipRadianceClipsRenderAndTruth) {
 }
 
 // The truth's noise floor from a second render of every image, listed in
-// truth.json under `key` with file suffix `suffix`: each = truth + 0.02
-// everywhere (no clip; or + `offset`), so it differs by 0.02 x alpha on the
-// foreground. Returns eval's floor "all" in dB.
+// truth.json under `key` with file suffix `suffix`: each = truth + `offset`
+// everywhere (no clip), so it differs by `offset` x alpha on the foreground.
+// Returns eval's floor "all" in dB.
 double EvalTest::NoiseFloorWithOffsetRenders(const std::string& key, const std::string& suffix, float offset,
                                              json* eval_out, std::string* md_out) {
   const std::string capture = dir_ + "/capture_" + key;

@@ -252,7 +252,7 @@ class ReportWorkspaceTest : public ::testing::Test {
                    {"summary", summary}, {"images", images},
                    {"truth_noise_floor",
                     {{"per_light_type", {{"point", {{"psnr_db", 32.0}, {"mae", 0.004}}}, {"all", {{"psnr_db", 32.0}, {"mae", 0.004}}}}},
-                     {"scores_within_min_margin", 2}}}});
+                     {"min_margin_db", 6.0}, {"scores_within_min_margin", 2}}}});
     WriteText(ws / "relight" / "eval" / "eval.md", "| method | point |\n| model | 26.80 / 0.0200 / 0.900 |\n");
   }
 
@@ -286,7 +286,7 @@ TEST_F(ReportWorkspaceTest, FullWorkspaceLoadsInChromiumWithoutErrors) {
   for (const std::string part : {"coverage_hemisphere.svg", "proxy_preview_0.png", "atlas_preview.png",
                                  "_trimap.png", "_matte.png", "training_psnr_all.svg", "turntable_env_",
                                  "capture_frames.svg", "trajectories_top.svg", "eval_01", "26.80 / 0.0200 / 0.900 *",
-                                 "24.20 / 0.0200 / 0.900<", "truth noise floor", "32.00 / 0.0040",
+                                 "24.20 / 0.0200 / 0.900<", "truth noise floor", "32.00 / 0.0040", "scores within 6 dB of it",
                                  "eval_eval_00_point_00_gt.png", "eval_eval_00_point_00_cues_only_error.png",
                                  "Geometry pass: ", "geometry pass (phone V)"}) {
     EXPECT_NE(html.find(part), std::string::npos) << part;

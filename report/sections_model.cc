@@ -311,6 +311,9 @@ std::string EvalTables(ReportContext& context, const fs::path& dir, const json& 
   std::vector<std::string> header = {"method"};
   for (const std::string& t : types) header.push_back(t);
   header.push_back("alpha MAE");
+  // eval writes each row's margin to the truth's noise floor and the margin below which it marks a score.
+  const json floor_info = eval.value("truth_noise_floor", json::object());
+  const double min_margin_db = floor_info.value("min_margin_db", 0.0);
   std::vector<std::vector<std::string>> rows;
   for (const std::string& method : methods) {
     std::vector<std::string> cells(types.size() + 2, "–");
@@ -319,16 +322,15 @@ std::string EvalTables(ReportContext& context, const fs::path& dir, const json& 
       if (row.value("method", "") != method) continue;
       const auto it = std::find(types.begin(), types.end(), row.value("light_type", ""));
       if (it == types.end()) continue;
-      // eval marks a score within 6 dB of the truth's noise floor.
       const bool near_floor = row.contains("truth_floor_margin_db") && row["truth_floor_margin_db"].is_number() &&
-                              row["truth_floor_margin_db"].get<double>() < 6.0;
+                              row["truth_floor_margin_db"].get<double>() < min_margin_db;
       cells[1 + (it - types.begin())] = number(row, "psnr_db", 2) + " / " + number(row, "mae", 4) + " / " +
                                         number(row, "ssim", 3) + (near_floor ? " *" : "");
       if (*it == "all") cells.back() = number(row, "alpha_mae", 4);
     }
     rows.push_back(cells);
   }
-  const json floor = eval.value("truth_noise_floor", json::object()).value("per_light_type", json::object());
+  const json floor = floor_info.value("per_light_type", json::object());
   if (!floor.empty()) {
     std::vector<std::string> cells(types.size() + 2, "–");
     cells[0] = "truth noise floor";
@@ -346,9 +348,10 @@ std::string EvalTables(ReportContext& context, const fs::path& dir, const json& 
                               : std::string("not clipped")) + ".");
   html += Table(header, rows);
   if (!floor.empty()) {
-    const int near = eval["truth_noise_floor"].value("scores_within_min_margin", 0);
+    const int near = floor_info.value("scores_within_min_margin", 0);
     html += Paragraph("Truth noise floor: the score a perfect prediction of the converged image gets against this "
-                      "truth; scores within 6 dB of it measure the truth's noise as much as the method" +
+                      "truth; scores within " + Fixed(min_margin_db, 0) +
+                      " dB of it measure the truth's noise as much as the method" +
                       (near > 0 ? std::string(" (marked *: render the eval set with more samples per pixel before "
                                               "quoting them).")
                                 : std::string(".")));
